@@ -1,0 +1,3 @@
+"""krl: agile quadruped locomotion by kernel-based residual learning."""
+
+__version__ = "0.1.0"
