@@ -1,0 +1,175 @@
+"""The ``krl`` command. ``krl --help`` lists the subcommands; every error is one line on stderr."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections.abc import Sequence
+from typing import Any
+
+EXIT_USAGE = 2
+
+
+class CliError(Exception):
+    """A user-facing error: printed as ``krl: error: <message>`` with exit status 2."""
+
+
+def _parse_params(items: Sequence[str] | None) -> dict[str, Any]:
+    """``["max_height=0.04", "num_steps=6"]`` -> ``{"max_height": 0.04, "num_steps": 6}``."""
+    params: dict[str, Any] = {}
+    for item in items or ():
+        key, sep, text = item.partition("=")
+        if not sep or not key:
+            raise CliError(f"--param expects KEY=VALUE, got {item!r}")
+        try:
+            value: Any = int(text)
+        except ValueError:
+            try:
+                value = float(text)
+            except ValueError:
+                value = text
+        params[key.strip()] = value
+    return params
+
+
+def _add_terrain_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--terrain", default="flat", help="terrain name (see `krl terrains`)")
+    parser.add_argument(
+        "--param", action="append", metavar="KEY=VALUE", help="terrain parameter override (repeatable)"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="seed of the terrain's random draws")
+
+
+def _build_sim(args: argparse.Namespace):
+    from krl.sim.model import build_model
+    from krl.sim.robot import A1Sim
+
+    return A1Sim(build_model(args.terrain, _parse_params(args.param), args.seed))
+
+
+def _settle(sim, seconds: float) -> None:
+    from krl.robots.a1.constants import STANDING_JOINT_ANGLES
+    from krl.timing import CONTROL_DT
+
+    for _ in range(round(seconds / CONTROL_DT)):
+        sim.step(STANDING_JOINT_ANGLES)
+
+
+def cmd_terrains(args: argparse.Namespace) -> int:
+    from krl.sim.terrains import TERRAIN_NAMES, terrain_param_defaults
+
+    for name in TERRAIN_NAMES:
+        defaults = ", ".join(f"{key}={value}" for key, value in terrain_param_defaults(name).items())
+        print(f"{name:18s} {defaults}")
+    return 0
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from krl.sim.render import CameraView, FrameRenderer, write_png
+
+    sim = _build_sim(args)
+    _settle(sim, args.settle)
+    view = CameraView(distance=args.distance, azimuth=args.azimuth, elevation=args.elevation)
+    with FrameRenderer(sim.model, args.width, args.height, view) as renderer:
+        image = renderer.render(sim.data)
+    path = write_png(image, args.out)
+    print(f"wrote {path} ({args.width}x{args.height}, terrain {sim.terrain.name}, t={sim.time:.2f} s)")
+    return 0
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    from krl.sim.render import has_display
+
+    if not has_display():
+        raise CliError(
+            "`krl view` needs a display (DISPLAY/WAYLAND_DISPLAY is unset); on a headless machine use "
+            "`krl render --terrain NAME --out FILE.png`"
+        )
+    import mujoco.viewer
+
+    from krl.robots.a1.constants import STANDING_JOINT_ANGLES
+    from krl.timing import CONTROL_DT
+
+    sim = _build_sim(args)
+    with mujoco.viewer.launch_passive(sim.model, sim.data) as viewer:
+        while viewer.is_running():
+            start = time.perf_counter()
+            sim.step(STANDING_JOINT_ANGLES)
+            viewer.sync()
+            time.sleep(max(0.0, CONTROL_DT - (time.perf_counter() - start)))
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    if args.target == "sim":
+        from krl.bench.sim import bench_sim
+
+        result = bench_sim(steps=args.steps, repeats=args.repeats)
+    else:  # argparse restricts the choices
+        raise CliError(f"unknown benchmark {args.target!r}")
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        for key, value in result.items():
+            print(f"{key}: {value}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from krl import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="krl",
+        description="Kernel-based residual learning for quadruped locomotion (Unitree A1, MuJoCo).",
+    )
+    parser.add_argument("--version", action="version", version=f"krl {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("terrains", help="list the terrains and their default parameters")
+    p.set_defaults(func=cmd_terrains)
+
+    p = sub.add_parser("render", help="render the robot standing on a terrain to a PNG (headless)")
+    _add_terrain_arguments(p)
+    p.add_argument("--out", required=True, help="output PNG path")
+    p.add_argument("--width", type=int, default=960)
+    p.add_argument("--height", type=int, default=640)
+    p.add_argument("--settle", type=float, default=0.5, help="seconds of standing before the frame [s]")
+    p.add_argument("--distance", type=float, default=3.0, help="camera distance from the trunk [m]")
+    p.add_argument("--azimuth", type=float, default=135.0, help="camera azimuth [deg]")
+    p.add_argument("--elevation", type=float, default=-25.0, help="camera elevation [deg]")
+    p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("view", help="open MuJoCo's interactive viewer on a terrain (needs a display)")
+    _add_terrain_arguments(p)
+    p.set_defaults(func=cmd_view)
+
+    p = sub.add_parser("bench", help="run a benchmark and print its figures")
+    p.add_argument("target", choices=["sim"], help="what to benchmark")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.add_argument("--steps", type=int, default=1000, help="control steps per timed loop")
+    p.add_argument("--repeats", type=int, default=7, help="alternating timed loops per variant")
+    p.set_defaults(func=cmd_bench)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``krl`` command; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    from krl.sim.render import RenderError
+    from krl.sim.robot import SimulationUnstableError
+
+    try:
+        return args.func(args)
+    except (CliError, ValueError, RenderError, SimulationUnstableError, OSError) as error:
+        print(f"krl: error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("krl: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
