@@ -21,7 +21,7 @@ def has_display() -> bool:
 def ensure_offscreen_backend() -> None:
     """Pick OSMesa for ``MUJOCO_GL`` on a machine without a display, unless the user chose a backend.
 
-    Must run before ``mujoco`` creates its first OpenGL context.
+    Must run before ``mujoco`` is first imported: ``import krl`` does it.
     """
     if "MUJOCO_GL" not in os.environ and not has_display():
         os.environ["MUJOCO_GL"] = "osmesa"

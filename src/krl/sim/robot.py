@@ -36,6 +36,10 @@ FALL_TILT: float = np.pi / 3
 
 _COS_FALL_TILT = math.cos(FALL_TILT)
 
+_BAD_QPOS = int(mujoco.mjtWarning.mjWARN_BADQPOS)
+_BAD_QVEL = int(mujoco.mjtWarning.mjWARN_BADQVEL)
+_BAD_QACC = int(mujoco.mjtWarning.mjWARN_BADQACC)
+
 SPAWN_CLEARANCE: float = 0.01
 """Height added above the standing height at reset so the feet start just above the ground [m]."""
 
@@ -155,6 +159,7 @@ class A1Sim:
         self._kd = KD.copy()
         self._write_gains(self._kp, self._kd)
         self._rot = np.zeros(9)
+        self._warning_counts = self.data.warning.number  # a view into MjData
         # views into the model's actuator force ranges, written in place by the motor envelope
         self._lower = self._forcerange[:, 0]
         self._upper = self._forcerange[:, 1]
@@ -291,12 +296,14 @@ class A1Sim:
         self._bias[:, 2] = -kd
 
     def _check_stable(self) -> None:
-        # On a non-finite or huge qpos/qvel/qacc MuJoCo warns and resets MjData, so the clock jumps
-        # back to zero; that is the cheapest reliable divergence signal.
-        if abs(self.data.time - self._step * CONTROL_DT) > 0.5 * CONTROL_DT:
+        # MuJoCo counts non-finite or huge qpos/qvel/qacc in its warning statistics (the model disables
+        # its automatic reset, so the diverged state stays visible); the counters are zeroed by reset().
+        counts = self._warning_counts
+        if counts[_BAD_QPOS] or counts[_BAD_QVEL] or counts[_BAD_QACC]:
+            start = (self._step - 1) * CONTROL_DT
             raise SimulationUnstableError(
-                f"simulation became unstable at t={self.time:.3f} s on terrain "
-                f"'{self.terrain.name}' (MuJoCo reported bad qpos/qvel/qacc)"
+                f"simulation became unstable in the control step starting at t={start:.3f} s on terrain "
+                f"'{self.terrain.name}' (MuJoCo reported a non-finite or huge qpos/qvel/qacc)"
             )
 
     def _read_state(self) -> RobotState:
