@@ -4,11 +4,11 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
-from krl.sim.terrains import TERRAIN_NAMES
 
 import krl  # noqa: F401  (registers the environments)
 from krl.envs.a1 import OBSERVATION_SIZE, OBSERVATION_SLICES
 from krl.robots.a1.constants import STANDING_JOINT_ANGLES
+from krl.sim.terrains import TERRAIN_NAMES
 
 
 @pytest.mark.parametrize("terrain", TERRAIN_NAMES)
