@@ -106,5 +106,11 @@ STANDING_HEIGHT: float = float(
 )
 """Height of the base origin above flat ground in the standing pose [m] (about 0.269)."""
 
+STANDING_INERTIA: np.ndarray = np.array(
+    [[0.1422, -0.0001, -0.0102], [-0.0001, 0.3881, -0.0002], [-0.0102, -0.0002, 0.4206]]
+)
+"""Whole-robot inertia about its centre of mass in the standing pose, trunk axes [kg·m²]. Shape: (3, 3).
+Computed from the MJCF's bodies (tests/sim/test_robot.py checks it); the MPC's rigid body."""
+
 FOOT_FRICTION: float = 1.0
 """Sliding friction coefficient of feet and ground (thesis 4.2.1)."""
