@@ -39,7 +39,9 @@ def _add_terrain_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--param", action="append", metavar="KEY=VALUE", help="terrain parameter override (repeatable)"
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the terrain's random draws")
+    parser.add_argument(
+        "--seed", type=int, default=0, help="seed of the run's random draws (terrain, waypoints)"
+    )
 
 
 def _build_sim(args: argparse.Namespace):
@@ -107,12 +109,103 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from krl.bench.sim import bench_sim
 
         result = bench_sim(steps=args.steps, repeats=args.repeats)
+    elif args.target == "mpc":
+        from krl.bench.mpc import bench_mpc
+
+        result = bench_mpc(seconds=args.seconds)
     else:  # argparse restricts the choices
         raise CliError(f"unknown benchmark {args.target!r}")
     if args.json:
         print(json.dumps(result, indent=2))
     else:
         for key, value in result.items():
+            print(f"{key}: {value}")
+    return 0
+
+
+def _parse_vector(text: str, size: int, what: str) -> list[float]:
+    try:
+        values = [float(part) for part in text.split(",")]
+    except ValueError:
+        raise CliError(f"{what} expects {size} comma-separated numbers, got {text!r}") from None
+    if len(values) != size:
+        raise CliError(f"{what} expects {size} comma-separated numbers, got {text!r}")
+    return values
+
+
+def add_expert_arguments(parser: argparse.ArgumentParser) -> None:
+    """The MPC expert's settings, shared by every command that runs the expert."""
+    parser.add_argument("--gait", default="trot", help="gait of Table 4.1 (walk, trot, bound)")
+    parser.add_argument("--stance-duration", type=float, default=0.2, help="τ_stance [s]")
+    parser.add_argument("--step-height", type=float, default=0.08, help="swing apex height [m], 0.05-0.18")
+    parser.add_argument("--ride-height", type=float, default=0.25, help="base height [m], 0.18-0.28")
+
+
+def expert_params_from_args(args: argparse.Namespace):
+    """ExpertParams from :func:`add_expert_arguments`' options (validated by ExpertParams)."""
+    from krl.control.expert import ExpertParams
+
+    return ExpertParams(
+        gait=args.gait,
+        stance_duration=args.stance_duration,
+        step_height=args.step_height,
+        ride_height=args.ride_height,
+    )
+
+
+def cmd_expert_run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from krl.control.expert import MPCExpert
+    from krl.runner import Runner, random_targets
+
+    expert = MPCExpert(expert_params_from_args(args))
+    sim = _build_sim(args)
+    recorder = None
+    if args.video:
+        from krl.sim.video import VideoRecorder
+
+        recorder = VideoRecorder(sim, args.video)
+    mpc_times: list[float] = []
+
+    def on_step(record) -> None:
+        mpc_times.append(expert.last.mpc_seconds)
+        if recorder is not None:
+            recorder.capture()
+
+    runner = Runner(sim, expert, on_step=on_step)
+    try:
+        if args.command is not None:
+            command = np.array(_parse_vector(args.command, 3, "--command"))
+            result = runner.hold_command(command, args.duration)
+            targets = np.zeros((0, 2))
+        else:
+            if args.target:
+                targets = np.array([_parse_vector(t, 2, "--target") for t in args.target])
+            else:
+                targets = random_targets(np.random.default_rng(args.seed), args.targets, sim.terrain.spawn_xy)
+            result = runner.walk_to(targets, target_time_limit=args.target_time_limit)
+    finally:
+        if recorder is not None:
+            recorder.close()
+    summary = {
+        "targets": len(targets),
+        "targets_reached": result.targets_reached,
+        "fell": result.fell,
+        "timed_out": result.timed_out,
+        "sim_seconds": round(result.sim_seconds, 3),
+        "wall_seconds": round(result.wall_seconds, 3),
+        "real_time_factor": round(result.sim_seconds / max(result.wall_seconds, 1e-9), 2),
+        "mpc_ms_median": round(float(np.median(mpc_times)) * 1e3, 4) if mpc_times else None,
+        "mean_velocity": [round(v, 4) for v in result.mean_velocity()],
+        "terrain": sim.terrain.name,
+    }
+    if args.video:
+        summary["video"] = str(args.video)
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        for key, value in summary.items():
             print(f"{key}: {value}")
     return 0
 
@@ -146,11 +239,39 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_view)
 
     p = sub.add_parser("bench", help="run a benchmark and print its figures")
-    p.add_argument("target", choices=["sim"], help="what to benchmark")
+    p.add_argument("target", choices=["sim", "mpc"], help="what to benchmark")
     p.add_argument("--json", action="store_true", help="print JSON")
-    p.add_argument("--steps", type=int, default=1000, help="control steps per timed loop")
-    p.add_argument("--repeats", type=int, default=7, help="alternating timed loops per variant")
+    p.add_argument("--steps", type=int, default=1000, help="sim: control steps per timed loop")
+    p.add_argument("--repeats", type=int, default=7, help="sim: alternating timed loops per variant")
+    p.add_argument("--seconds", type=float, default=20.0, help="mpc: simulated seconds of walking")
     p.set_defaults(func=cmd_bench)
+
+    expert = sub.add_parser("expert", help="the convex-MPC expert").add_subparsers(
+        dest="expert_command", required=True, metavar="EXPERT_COMMAND"
+    )
+    p = expert.add_parser("run", help="walk the expert to waypoints or at a fixed command")
+    _add_terrain_arguments(p)
+    add_expert_arguments(p)
+    p.add_argument("--targets", type=int, default=5, help="number of random waypoints")
+    p.add_argument("--target", action="append", metavar="X,Y", help="a given waypoint (repeatable)")
+    p.add_argument("--target-time-limit", type=float, default=40.0, help="time allowed per waypoint [s]")
+    p.add_argument("--command", metavar="VX,VY,WZ", help="walk at a fixed command instead of to waypoints")
+    p.add_argument("--duration", type=float, default=10.0, help="with --command: run length [s]")
+    p.add_argument("--video", help="write an MP4 of the run")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_expert_run)
+
+    from krl.analysis import expert_plots
+
+    p = expert.add_parser("plot", help="the expert's analysis figures (Figs. 4.8, 4.15, A.2, A.3)")
+    expert_plots.add_arguments(p)
+    p.set_defaults(func=expert_plots.run)
+
+    from krl.data import collect
+
+    p = sub.add_parser("collect", help="collect expert data for the kernel (Section 4.2.6.2)")
+    collect.add_arguments(p)
+    p.set_defaults(func=collect.run)
     return parser
 
 

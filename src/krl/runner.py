@@ -1,0 +1,217 @@
+"""Walking a controller to waypoints (or at a fixed command) in the simulator.
+
+Shared by ``krl expert run``, data collection and, later, the kernel and the evaluation courses:
+each control step the command generator (Algorithm 2, 20 Hz) turns the current waypoint into a
+velocity command, the controller turns it into a joint command, and the simulator steps.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from krl.control.commands import CommandGenerator, CommandParams
+from krl.control.types import Controller, JointCommand
+from krl.sim.robot import A1Sim, RobotState
+from krl.timing import CONTROL_DT
+
+TARGET_TIME_LIMIT: float = 40.0
+"""Default time allowed to reach one waypoint before the run gives up [s]."""
+
+HOLD_RAMP: float = 1.0
+"""Default time over which a fixed command rises from zero [s]."""
+
+HOLD_SETTLE: float = 1.0
+"""Time after the ramp before velocities count as steady [s]."""
+
+
+def random_targets(
+    rng: np.random.Generator,
+    count: int,
+    start_xy: tuple[float, float] = (0.0, 0.0),
+    distance: tuple[float, float] = (2.5, 3.5),
+) -> np.ndarray:
+    """Consecutive waypoints, each at a distance ~ U(distance) [m] in a direction ~ U(-π, π) from the last.
+
+    The thesis's data collection walks to targets "at a minimum distance of 2.5 m in a random direction".
+    Shape: (count, 2).
+    """
+    if count < 0:
+        raise ValueError(f"target count must be >= 0, got {count}")
+    low, high = distance
+    if not 0 < low <= high:
+        raise ValueError(f"target distance range must satisfy 0 < low <= high, got {distance}")
+    steps = rng.uniform(low, high, count)
+    angles = rng.uniform(-np.pi, np.pi, count)
+    offsets = np.stack((steps * np.cos(angles), steps * np.sin(angles)), axis=1)
+    return np.asarray(start_xy, dtype=float) + np.cumsum(offsets, axis=0)
+
+
+@dataclass
+class StepRecord:
+    """One control step, as seen by a recorder."""
+
+    before: RobotState
+    """State the controller saw."""
+    command: np.ndarray
+    """Velocity command (vx, vy, wz) [m/s, m/s, rad/s]. Shape: (3,)."""
+    joint_command: JointCommand
+    """What the controller sent."""
+    after: RobotState
+    """State after the step."""
+    target_index: int
+    """Index of the waypoint being walked to (-1 in fixed-command runs)."""
+
+
+@dataclass
+class RunResult:
+    """Outcome of one run."""
+
+    targets_reached: int = 0
+    fell: bool = False
+    timed_out: bool = False
+    """A waypoint was not reached within its time limit."""
+    sim_seconds: float = 0.0
+    wall_seconds: float = 0.0
+    commanded: list[np.ndarray] = field(default_factory=list, repr=False)
+    realised: list[np.ndarray] = field(default_factory=list, repr=False)
+
+    def mean_velocity(self) -> list[float]:
+        """Mean realised (vx, vy) in the base frame [m/s] and yaw rate [rad/s] over the run."""
+        if not self.realised:
+            return [0.0, 0.0, 0.0]
+        return [float(v) for v in np.mean(self.realised, axis=0)]
+
+
+def realised_velocity(state: RobotState) -> np.ndarray:
+    """(vx, vy) of the trunk in its heading frame [m/s] and the yaw rate [rad/s]. Shape: (3,)."""
+    yaw = state.rpy[2]
+    c, s = np.cos(yaw), np.sin(yaw)
+    vx, vy = state.lin_vel_world[0], state.lin_vel_world[1]
+    return np.array([c * vx + s * vy, -s * vx + c * vy, state.ang_vel_world[2]])
+
+
+class Runner:
+    """Runs one controller in one simulator.
+
+    Args:
+        sim: the simulator (reset by :meth:`walk_to` / :meth:`hold_command` unless ``reset=False``).
+        controller: anything implementing :class:`krl.control.types.Controller`.
+        command_params: the command generator's limits and target threshold.
+        on_step: called after every control step with a :class:`StepRecord`.
+        on_target: called with the waypoint index each time a waypoint is reached.
+    """
+
+    def __init__(
+        self,
+        sim: A1Sim,
+        controller: Controller,
+        command_params: CommandParams | None = None,
+        on_step: Callable[[StepRecord], None] | None = None,
+        on_target: Callable[[int], None] | None = None,
+    ) -> None:
+        self.sim = sim
+        self.controller = controller
+        self.command_params = command_params or CommandParams()
+        self.on_step = on_step
+        self.on_target = on_target
+        self.generator = CommandGenerator(self.command_params)
+        """The command generator; its command carries over between waypoints (and between calls with
+        ``reset=False``), as Algorithm 2's ramp intends."""
+
+    def _start(self, reset: bool) -> RobotState:
+        if not reset:
+            return self.sim.state
+        state = self.sim.reset()
+        self.controller.reset(state)
+        self.generator.reset()
+        return state
+
+    def _step(
+        self,
+        state: RobotState,
+        command: np.ndarray,
+        target_index: int,
+        result: RunResult,
+        record_velocity: bool = True,
+    ) -> RobotState:
+        joint_command = self.controller.act(state, command)
+        after = self.sim.step(*joint_command)
+        if record_velocity:
+            result.commanded.append(command.copy())
+            result.realised.append(realised_velocity(after))
+        if self.on_step is not None:
+            self.on_step(StepRecord(state, command, joint_command, after, target_index))
+        return after
+
+    def walk_to(
+        self,
+        targets: np.ndarray,
+        target_time_limit: float = TARGET_TIME_LIMIT,
+        reset: bool = True,
+    ) -> RunResult:
+        """Walk to each waypoint in turn (world (x, y) [m], shape (N, 2)); stop on a fall or time-out.
+
+        With ``reset=False`` the run continues from the simulator's and controller's current state (the
+        gait clock keeps running), so a long walk can be split into calls, one per waypoint.
+        """
+        targets = np.asarray(targets, dtype=float).reshape(-1, 2)
+        state = self._start(reset)
+        generator = self.generator
+        result = RunResult()
+        wall = time.perf_counter()
+        limit_steps = round(target_time_limit / CONTROL_DT)
+        for index, target in enumerate(targets):
+            generator.set_target(target)
+            for _ in range(limit_steps):
+                command = generator.step(state.base_pos[:2], state.rpy[2])
+                if generator.reached:
+                    break
+                state = self._step(state, command, index, result)
+                if state.fallen:
+                    result.fell = True
+                    break
+            else:
+                result.timed_out = True
+            if result.fell or result.timed_out:
+                break
+            result.targets_reached += 1
+            if self.on_target is not None:
+                self.on_target(index)
+        result.sim_seconds = self.sim.time
+        result.wall_seconds = time.perf_counter() - wall
+        return result
+
+    def hold_command(
+        self, command: np.ndarray, duration: float, ramp: float = HOLD_RAMP, reset: bool = True
+    ) -> RunResult:
+        """Walk at a fixed velocity command (vx, vy, wz) for ``duration`` seconds or until a fall.
+
+        The command rises linearly from zero over ``ramp`` seconds; the result's velocities (and so
+        :meth:`RunResult.mean_velocity`) cover only the time from ``ramp + HOLD_SETTLE`` on, the steady
+        part.
+        """
+        command = np.asarray(command, dtype=float)
+        if command.shape != (3,) or not np.isfinite(command).all():
+            raise ValueError(f"command must be three finite numbers (vx, vy, wz), got {command!r}")
+        if not duration > ramp + HOLD_SETTLE:
+            raise ValueError(
+                f"duration must exceed ramp + {HOLD_SETTLE} s = {ramp + HOLD_SETTLE} s, got {duration}"
+            )
+        state = self._start(reset)
+        result = RunResult()
+        wall = time.perf_counter()
+        ramp_steps = max(1, round(ramp / CONTROL_DT))
+        steady_from = round((ramp + HOLD_SETTLE) / CONTROL_DT)
+        for k in range(round(duration / CONTROL_DT)):
+            current = command * min(1.0, (k + 1) / ramp_steps)
+            state = self._step(state, current, -1, result, record_velocity=k >= steady_from)
+            if state.fallen:
+                result.fell = True
+                break
+        result.sim_seconds = self.sim.time
+        result.wall_seconds = time.perf_counter() - wall
+        return result
