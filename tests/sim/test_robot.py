@@ -128,3 +128,25 @@ def test_bad_commands_rejected(flat, bad, message):
         sim.step(bad)
     with pytest.raises(ValueError, match="kp and kd must be >= 0"):
         sim.step(STANDING_JOINT_ANGLES, kp=-KP)
+
+
+def test_standing_inertia_constant_matches_the_model(flat):
+    """constants.STANDING_INERTIA is the whole robot's inertia about its CoM in the standing pose."""
+    from krl.robots.a1.constants import STANDING_INERTIA
+
+    m = flat.model
+    d = mujoco.MjData(m)
+    d.qpos[:7] = (0, 0, 0.3, 1, 0, 0, 0)
+    d.qpos[7:19] = STANDING_JOINT_ANGLES
+    mujoco.mj_forward(m, d)
+    trunk = m.body("trunk").id
+    com = d.subtree_com[trunk]
+    inertia = np.zeros((3, 3))
+    for body in range(trunk, m.nbody):
+        if m.body_rootid[body] != trunk:
+            continue
+        rot = d.ximat[body].reshape(3, 3)
+        offset = d.xipos[body] - com
+        inertia += rot @ np.diag(m.body_inertia[body]) @ rot.T
+        inertia += m.body_mass[body] * (offset @ offset * np.eye(3) - np.outer(offset, offset))
+    np.testing.assert_allclose(STANDING_INERTIA, inertia, atol=1e-4)

@@ -7,6 +7,7 @@ through inverse kinematics and the Table 4.2 PD. ``docs/expert.md`` lists every 
 
 from __future__ import annotations
 
+import logging
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -14,11 +15,16 @@ import numpy as np
 
 from krl.control.gait import GaitGenerator, gait_params, leg_phases, stance_mask
 from krl.control.kinematics import foot_jacobians, inverse_kinematics
-from krl.control.mpc import GRAVITY, ConvexMPC, MPCParams
+from krl.control.mpc import GRAVITY, ConvexMPC, MPCError, MPCParams
 from krl.control.swing import NOMINAL_FOOT_XY, raibert_landing, swing_position
 from krl.control.types import JointCommand
 from krl.robots.a1.constants import FOOT_RADIUS, KD, KP, NUM_JOINTS, NUM_LEGS
 from krl.sim.robot import RobotState
+
+_log = logging.getLogger(__name__)
+
+MAX_CONSECUTIVE_MPC_FAILURES: int = 5
+"""MPC failures in a row bridged with the previous plan before the expert gives up (25 ms)."""
 
 STEP_HEIGHT_RANGE: tuple[float, float] = (0.05, 0.18)
 """Allowed step heights [m] (thesis 4.2.6.5)."""
@@ -92,6 +98,10 @@ class MPCExpert:
         self._velocities: deque[np.ndarray] = deque(maxlen=p.velocity_window)
         self._lift_off = np.zeros((NUM_LEGS, 3))
         self._was_stance = np.ones(NUM_LEGS, dtype=bool)
+        self._fallback_plan: np.ndarray | None = None
+        self._consecutive_failures = 0
+        self.mpc_failures = 0
+        """MPC updates that failed and were bridged with the previous plan, since construction."""
         self.last: ExpertStep | None = None
 
     def set_heights(self, step_height: float | None = None, ride_height: float | None = None) -> None:
@@ -109,6 +119,8 @@ class MPCExpert:
         self._velocities.clear()
         self._lift_off = state.foot_pos_base.copy()
         self._was_stance = self.gait.stance_mask.copy()
+        self._fallback_plan = None
+        self._consecutive_failures = 0
         self.last = None
 
     def act(self, state: RobotState, command: np.ndarray) -> JointCommand:
@@ -142,9 +154,9 @@ class MPCExpert:
         future = leg_phases(self.gait.time + self._horizon_times, gait)
         contacts = stance_mask(future, gait.swing_ratio)
         start = time.perf_counter()
-        solution = self.mpc.solve(x0, reference, feet_heading - com_heading, body_to_heading, contacts)
+        forces = self._plan_forces(x0, reference, feet_heading - com_heading, body_to_heading, contacts)
         mpc_seconds = time.perf_counter() - start
-        forces_base = solution.forces @ body_to_heading  # heading -> base: R^T f, row-wise
+        forces_base = forces @ body_to_heading  # heading -> base: R^T f, row-wise
         jacobians = foot_jacobians(state.joint_pos)  # (4, 3, 3)
         stance_torque = -np.einsum("lij,li->lj", jacobians, forces_base)  # (4, 3)
 
@@ -171,10 +183,31 @@ class MPCExpert:
         kp = np.where(stance_joints, 0.0, KP)
         kd = np.where(stance_joints, 0.0, KD)
         tau_ff = np.where(stance_joints, stance_torque.reshape(NUM_JOINTS), 0.0)
-        self.last = ExpertStep(
-            stance=stance, foot_targets=targets, forces=solution.forces, mpc_seconds=mpc_seconds
-        )
+        self.last = ExpertStep(stance=stance, foot_targets=targets, forces=forces, mpc_seconds=mpc_seconds)
         return JointCommand(q_target, kp, kd, tau_ff)
+
+    def _plan_forces(self, x0, reference, foot_rel_com, body_to_heading, contacts) -> np.ndarray:
+        """The MPC's first-step forces; on a QP failure, the previous plan's next step (counted, logged).
+
+        Raises MPCError after ``MAX_CONSECUTIVE_MPC_FAILURES`` failures in a row.
+        """
+        try:
+            solution = self.mpc.solve(x0, reference, foot_rel_com, body_to_heading, contacts)
+        except MPCError as error:
+            self.mpc_failures += 1
+            self._consecutive_failures += 1
+            if self._consecutive_failures > MAX_CONSECUTIVE_MPC_FAILURES or self._fallback_plan is None:
+                raise MPCError(
+                    f"{error} ({self._consecutive_failures} consecutive failures, no usable plan)"
+                ) from None
+            _log.warning(
+                "MPC failed (%s); reusing the previous plan (%d failures so far)", error, self.mpc_failures
+            )
+            self._fallback_plan = np.concatenate((self._fallback_plan[1:], self._fallback_plan[-1:]))
+            return self._fallback_plan[0] * contacts[0][:, None]
+        self._consecutive_failures = 0
+        self._fallback_plan = solution.plan
+        return solution.forces
 
     def _reference(self, vx: float, vy: float, wz: float, height: float) -> np.ndarray:
         """Desired states at prediction steps 1..horizon in the current heading frame. Shape: (h, 13)."""
