@@ -16,6 +16,15 @@ class CliError(Exception):
     """A user-facing error: printed as ``krl: error: <message>`` with exit status 2."""
 
 
+def emit(result: dict[str, Any], as_json: bool) -> None:
+    """Print a command's result: indented JSON, or one ``key: value`` line per entry."""
+    if as_json:
+        print(json.dumps(result, indent=2))
+    else:
+        for key, value in result.items():
+            print(f"{key}: {value}")
+
+
 def _parse_params(items: Sequence[str] | None) -> dict[str, Any]:
     """``["max_height=0.04", "num_steps=6"]`` -> ``{"max_height": 0.04, "num_steps": 6}``."""
     params: dict[str, Any] = {}
@@ -115,11 +124,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         result = bench_mpc(seconds=args.seconds)
     else:  # argparse restricts the choices
         raise CliError(f"unknown benchmark {args.target!r}")
-    if args.json:
-        print(json.dumps(result, indent=2))
-    else:
-        for key, value in result.items():
-            print(f"{key}: {value}")
+    emit(result, args.json)
     return 0
 
 
@@ -202,11 +207,7 @@ def cmd_expert_run(args: argparse.Namespace) -> int:
     }
     if args.video:
         summary["video"] = str(args.video)
-    if args.json:
-        print(json.dumps(summary, indent=2))
-    else:
-        for key, value in summary.items():
-            print(f"{key}: {value}")
+    emit(summary, args.json)
     return 0
 
 
