@@ -158,27 +158,45 @@ def expert_params_from_args(args: argparse.Namespace):
     )
 
 
-def cmd_expert_run(args: argparse.Namespace) -> int:
+def add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of every ``… run`` command: waypoints or a fixed command, video, JSON."""
+    _add_terrain_arguments(parser)
+    parser.add_argument(
+        "--targets", type=int, default=5, help="number of random waypoints (seeded by --seed)"
+    )
+    parser.add_argument("--target", action="append", metavar="X,Y", help="a given waypoint (repeatable)")
+    parser.add_argument("--target-time-limit", type=float, default=40.0, help="time allowed per waypoint [s]")
+    parser.add_argument(
+        "--command", metavar="VX,VY,WZ", help="walk at a fixed command instead of to waypoints"
+    )
+    parser.add_argument("--duration", type=float, default=10.0, help="with --command: run length [s]")
+    parser.add_argument("--video", help="write an MP4 of the run")
+    parser.add_argument("--json", action="store_true", help="print JSON")
+
+
+def run_controller(args: argparse.Namespace, controller, step_hook=None) -> dict[str, Any]:
+    """Run ``controller`` as :func:`add_run_arguments`' options say; returns the summary printed by ``run``.
+
+    ``step_hook()`` is called after every control step (e.g. to collect timings).
+    """
     import numpy as np
 
-    from krl.control.expert import MPCExpert
     from krl.runner import Runner, random_targets
 
-    expert = MPCExpert(expert_params_from_args(args))
     sim = _build_sim(args)
     recorder = None
     if args.video:
         from krl.sim.video import VideoRecorder
 
         recorder = VideoRecorder(sim, args.video)
-    mpc_times: list[float] = []
 
     def on_step(record) -> None:
-        mpc_times.append(expert.last.mpc_seconds)
+        if step_hook is not None:
+            step_hook()
         if recorder is not None:
             recorder.capture()
 
-    runner = Runner(sim, expert, on_step=on_step)
+    runner = Runner(sim, controller, on_step=on_step)
     try:
         if args.command is not None:
             command = np.array(_parse_vector(args.command, 3, "--command"))
@@ -193,7 +211,7 @@ def cmd_expert_run(args: argparse.Namespace) -> int:
     finally:
         if recorder is not None:
             recorder.close()
-    summary = {
+    summary: dict[str, Any] = {
         "targets": len(targets),
         "targets_reached": result.targets_reached,
         "fell": result.fell,
@@ -201,12 +219,24 @@ def cmd_expert_run(args: argparse.Namespace) -> int:
         "sim_seconds": round(result.sim_seconds, 3),
         "wall_seconds": round(result.wall_seconds, 3),
         "real_time_factor": round(result.sim_seconds / max(result.wall_seconds, 1e-9), 2),
-        "mpc_ms_median": round(float(np.median(mpc_times)) * 1e3, 4) if mpc_times else None,
         "mean_velocity": [round(v, 4) for v in result.mean_velocity()],
         "terrain": sim.terrain.name,
     }
     if args.video:
         summary["video"] = str(args.video)
+    return summary
+
+
+def cmd_expert_run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from krl.control.expert import MPCExpert
+
+    expert = MPCExpert(expert_params_from_args(args))
+    mpc_times: list[float] = []
+    summary = run_controller(args, expert, lambda: mpc_times.append(expert.last.mpc_seconds))
+    summary["mpc_ms_median"] = round(float(np.median(mpc_times)) * 1e3, 4) if mpc_times else None
+    summary["mpc_failures"] = expert.mpc_failures
     emit(summary, args.json)
     return 0
 
@@ -251,15 +281,8 @@ def build_parser() -> argparse.ArgumentParser:
         dest="expert_command", required=True, metavar="EXPERT_COMMAND"
     )
     p = expert.add_parser("run", help="walk the expert to waypoints or at a fixed command")
-    _add_terrain_arguments(p)
+    add_run_arguments(p)
     add_expert_arguments(p)
-    p.add_argument("--targets", type=int, default=5, help="number of random waypoints")
-    p.add_argument("--target", action="append", metavar="X,Y", help="a given waypoint (repeatable)")
-    p.add_argument("--target-time-limit", type=float, default=40.0, help="time allowed per waypoint [s]")
-    p.add_argument("--command", metavar="VX,VY,WZ", help="walk at a fixed command instead of to waypoints")
-    p.add_argument("--duration", type=float, default=10.0, help="with --command: run length [s]")
-    p.add_argument("--video", help="write an MP4 of the run")
-    p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_expert_run)
 
     from krl.analysis import expert_plots
@@ -267,6 +290,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = expert.add_parser("plot", help="the expert's analysis figures (Figs. 4.8, 4.15, A.2, A.3)")
     expert_plots.add_arguments(p)
     p.set_defaults(func=expert_plots.run)
+
+    from krl.kernel import cli as kernel_cli
+
+    kernel_cli.register(sub)
 
     from krl.data import collect
 

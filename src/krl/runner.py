@@ -44,9 +44,12 @@ def random_targets(
     low, high = distance
     if not 0 < low <= high:
         raise ValueError(f"target distance range must satisfy 0 < low <= high, got {distance}")
-    steps = rng.uniform(low, high, count)
-    angles = rng.uniform(-np.pi, np.pi, count)
-    offsets = np.stack((steps * np.cos(angles), steps * np.sin(angles)), axis=1)
+    # one (distance, direction) pair per target, in order, so a longer list extends a shorter one
+    offsets = np.zeros((count, 2))
+    for index in range(count):
+        step = rng.uniform(low, high)
+        angle = rng.uniform(-np.pi, np.pi)
+        offsets[index] = step * np.cos(angle), step * np.sin(angle)
     return np.asarray(start_xy, dtype=float) + np.cumsum(offsets, axis=0)
 
 
@@ -75,6 +78,7 @@ class RunResult:
     timed_out: bool = False
     """A waypoint was not reached within its time limit."""
     sim_seconds: float = 0.0
+    """Simulated time this call ran [s]."""
     wall_seconds: float = 0.0
     commanded: list[np.ndarray] = field(default_factory=list, repr=False)
     realised: list[np.ndarray] = field(default_factory=list, repr=False)
@@ -160,6 +164,7 @@ class Runner:
         """
         targets = np.asarray(targets, dtype=float).reshape(-1, 2)
         state = self._start(reset)
+        started_at = self.sim.time
         generator = self.generator
         result = RunResult()
         wall = time.perf_counter()
@@ -181,7 +186,7 @@ class Runner:
             result.targets_reached += 1
             if self.on_target is not None:
                 self.on_target(index)
-        result.sim_seconds = self.sim.time
+        result.sim_seconds = self.sim.time - started_at
         result.wall_seconds = time.perf_counter() - wall
         return result
 
@@ -202,6 +207,7 @@ class Runner:
                 f"duration must exceed ramp + {HOLD_SETTLE} s = {ramp + HOLD_SETTLE} s, got {duration}"
             )
         state = self._start(reset)
+        started_at = self.sim.time
         result = RunResult()
         wall = time.perf_counter()
         ramp_steps = max(1, round(ramp / CONTROL_DT))
@@ -212,6 +218,6 @@ class Runner:
             if state.fallen:
                 result.fell = True
                 break
-        result.sim_seconds = self.sim.time
+        result.sim_seconds = self.sim.time - started_at
         result.wall_seconds = time.perf_counter() - wall
         return result

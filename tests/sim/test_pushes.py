@@ -25,7 +25,7 @@ def test_impulse_hand_worked():
 def test_momentum_change_equals_impulse_in_free_flight(mode):
     built = build_model("flat")
     sim = A1Sim(built)
-    built.model.opt.gravity[:] = 0.0
+    sim.model.opt.gravity[:] = 0.0
     sim.reset()
     sim.data.qpos[2] = 3.0  # far above the ground: no contact, no gravity
     mujoco.mj_forward(sim.model, sim.data)

@@ -108,11 +108,12 @@ FIELDS: tuple[FieldSpec, ...] = (
               "unit gravity direction, (0, 0, -1) when level (the reward's 'CoM' term)"),
     # --- labels, after the action ------------------------------------------------------------------
     FieldSpec("foot_ref", 12, _F32, "m", "base", "label", "p_ref",
-              "expert foot targets: swing targets for swing legs, current (before) positions for stance legs"),
+              "expert foot targets: swing targets (swing legs), current before-positions (stance legs)"),
     FieldSpec("foot_pos_next", 12, _F32, "m", "base", "label", "p'",
               "foot-sphere centres after the control step, in the base frame after the step"),
     # --- expert settings ---------------------------------------------------------------------------
-    FieldSpec("step_height", 0, _F32, "m", "", "setting", "p_air", "swing apex above the default foot height"),
+    FieldSpec("step_height", 0, _F32, "m", "", "setting", "p_air",
+              "swing apex above the default foot height"),
     FieldSpec("ride_height", 0, _F32, "m", "", "setting", "", "desired trunk-origin height"),
     FieldSpec("stance_duration", 0, _F32, "s", "", "setting", "τ_stance", "stance duration of the gait"),
     # --- bookkeeping -------------------------------------------------------------------------------
@@ -322,9 +323,7 @@ class Dataset:
     an episode in time order.
     """
 
-    def __init__(
-        self, path: Path, manifest: Mapping[str, Any], columns: dict[str, np.ndarray]
-    ) -> None:
+    def __init__(self, path: Path, manifest: Mapping[str, Any], columns: dict[str, np.ndarray]) -> None:
         self.path = Path(path)
         """The dataset directory."""
         self.manifest: dict[str, Any] = dict(manifest)

@@ -9,6 +9,7 @@ five physics steps in one ``mj_step`` call, refreshes positions with ``mj_kinema
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 
@@ -138,7 +139,9 @@ class A1Sim:
     """
 
     def __init__(self, built: BuiltModel, motor_envelope: bool = True) -> None:
-        self.model = built.model
+        # A private copy: the PD gains and motor envelope are written into the model every step, so two
+        # simulators must never share one MjModel.
+        self.model = copy.copy(built.model)
         self.terrain = built.terrain
         self.data = mujoco.MjData(self.model)
         self.motor_envelope = motor_envelope

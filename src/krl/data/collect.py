@@ -1,0 +1,730 @@
+"""Expert data collection (thesis Section 4.2.6.2): the MPC expert walks to random targets; every 200 Hz
+control step becomes one row of :mod:`krl.data.schema`.
+
+The collection is split into *episodes* of ``targets_per_episode`` consecutive targets. Each episode starts
+from a standing reset at the terrain's spawn with a fresh simulator and expert, and draws its targets (and,
+in ``ext`` mode, its step/ride heights) from ``np.random.default_rng([seed, episode])``, so an episode's
+rows do not depend on what ran before it. A finished episode is written atomically as one Parquet part
+file and then listed in ``manifest.json`` (also written atomically); re-running the same collection on the
+same directory resumes after the last finished episode. ``docs/data.md`` has the layout and the reasoning.
+
+Modes:
+
+- ``base``: fixed expert settings (the kernel-base data).
+- ``ext``: before each target, step height ~ U(0.05, 0.18) m and ride height ~ U(0.18, 0.28) m, both drawn
+  and applied with :meth:`MPCExpert.set_heights` (kernel-ext).
+- ``dyn2``: a standing reset at the spawn before every target, which is drawn around the spawn
+  (kernel-dyn2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import datetime
+import json
+import os
+import sys
+import time
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from krl.control.commands import CommandParams
+from krl.control.expert import RIDE_HEIGHT_RANGE, STEP_HEIGHT_RANGE, ExpertParams, MPCExpert
+from krl.control.gait import normalised_phase
+from krl.control.mpc import MPCError
+from krl.data.schema import (
+    FIELDS,
+    FORMAT_NAME,
+    MANIFEST_NAME,
+    PART_PATTERN,
+    SCHEMA_VERSION,
+    DatasetError,
+    canonical_json,
+    columns_description,
+    columns_to_table,
+    content_hash,
+    dataset_hash,
+    file_sha256,
+    read_manifest,
+)
+from krl.runner import TARGET_TIME_LIMIT, Runner, StepRecord, random_targets
+from krl.sim.robot import SimulationUnstableError
+from krl.timing import CONTROL_DT
+
+MODES: tuple[str, ...] = ("base", "ext", "dyn2")
+"""Collection modes (see the module docstring)."""
+
+DEFAULT_TARGET_DISTANCE: tuple[float, float] = (2.5, 3.5)
+"""Distance of each target from the previous one (or from the spawn after a reset) ~ U(low, high) [m]:
+the thesis's "minimum distance of 2.5 m"; the upper end is ours."""
+
+LOCK_NAME: str = ".lock"
+"""Lock file of a dataset directory while a collection writes it (holds the writer's pid)."""
+
+
+_DICTIONARY_COLUMNS: tuple[str, ...] = (
+    "step_height",
+    "ride_height",
+    "stance_duration",
+    "episode",
+    "target_index",
+    "target_xy",
+)
+"""Columns that are constant per target or episode, where Parquet's dictionary encoding pays off."""
+
+
+class SettingsMismatchError(ValueError):
+    """Resuming a dataset with settings different from those it was started with."""
+
+
+# --- configuration ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class CollectConfig:
+    """What to collect. Everything except ``targets`` must match when a collection is resumed."""
+
+    targets: int = 500
+    """Total number of targets (the thesis's 500)."""
+    mode: str = "base"
+    """One of :data:`MODES`."""
+    targets_per_episode: int = 10
+    """Targets per episode (one part file, the unit of resumption); the last episode may have fewer."""
+    target_time_limit: float = TARGET_TIME_LIMIT
+    """Time allowed to reach one target before it is skipped [s]."""
+    seed: int = 0
+    """Seed of the terrain and of every episode's draws (``default_rng([seed, episode])``)."""
+    expert: ExpertParams = field(default_factory=ExpertParams)
+    """The expert's settings (in ``ext`` mode its step and ride heights are redrawn per target)."""
+    terrain: str = "flat"
+    """Terrain name (:data:`krl.sim.terrains.TERRAIN_NAMES`)."""
+    terrain_params: Mapping[str, Any] | None = None
+    """Terrain parameter overrides."""
+    command: CommandParams = field(default_factory=CommandParams)
+    """Command generator parameters (Algorithm 2)."""
+    target_distance: tuple[float, float] = DEFAULT_TARGET_DISTANCE
+    """Target distance range (low, high) [m]; tests use short distances."""
+    step_height_range: tuple[float, float] = STEP_HEIGHT_RANGE
+    """``ext`` mode: step height ~ U(range) [m] (thesis 4.2.6.5)."""
+    ride_height_range: tuple[float, float] = RIDE_HEIGHT_RANGE
+    """``ext`` mode: ride height ~ U(range) [m] (thesis 4.2.6.5)."""
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f"unknown collection mode {self.mode!r}; modes: {', '.join(MODES)}")
+        for name in ("targets", "targets_per_episode", "seed"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise ValueError(f"{name} must be an integer, got {value!r}")
+        if self.targets < 1:
+            raise ValueError(f"targets must be >= 1, got {self.targets}")
+        if self.targets_per_episode < 1:
+            raise ValueError(f"targets_per_episode must be >= 1, got {self.targets_per_episode}")
+        if self.seed < 0:
+            raise ValueError(f"seed must be >= 0, got {self.seed}")
+        if not (np.isfinite(self.target_time_limit) and self.target_time_limit > 0):
+            raise ValueError(f"target_time_limit must be > 0 s, got {self.target_time_limit}")
+        low, high = (float(v) for v in self.target_distance)
+        if not (np.isfinite(high) and 0 < low <= high):
+            raise ValueError(f"target distance must satisfy 0 < low <= high, got {self.target_distance}")
+        object.__setattr__(self, "target_distance", (low, high))
+        for name, allowed in (
+            ("step_height_range", STEP_HEIGHT_RANGE),
+            ("ride_height_range", RIDE_HEIGHT_RANGE),
+        ):
+            low, high = (float(v) for v in getattr(self, name))
+            if not allowed[0] <= low <= high <= allowed[1]:
+                raise ValueError(f"{name} must lie within {allowed} with low <= high, got ({low}, {high})")
+            object.__setattr__(self, name, (low, high))
+        if self.terrain_params is not None:
+            object.__setattr__(self, "terrain_params", dict(self.terrain_params))
+
+    @property
+    def num_episodes(self) -> int:
+        return -(-self.targets // self.targets_per_episode)
+
+    def episode_targets(self, episode: int) -> int:
+        """Number of targets of ``episode`` (all full except possibly the last)."""
+        return min(self.targets_per_episode, self.targets - episode * self.targets_per_episode)
+
+    def settings(self, terrain) -> dict[str, Any]:
+        """The settings that define the data (everything but ``targets``), JSON-ready; ``terrain`` is the
+        built :class:`krl.sim.terrains.Terrain` (its resolved parameters are recorded)."""
+        settings = {
+            "mode": self.mode,
+            "seed": int(self.seed),
+            "targets_per_episode": int(self.targets_per_episode),
+            "target_time_limit": float(self.target_time_limit),
+            "target_distance": list(self.target_distance),
+            "step_height_range": list(self.step_height_range),
+            "ride_height_range": list(self.ride_height_range),
+            "expert": dataclasses.asdict(self.expert),
+            "terrain": {"name": terrain.name, "params": dict(terrain.params)},
+            "spawn_xy": [float(v) for v in terrain.spawn_xy],
+            "command": dataclasses.asdict(self.command),
+            "control_dt": CONTROL_DT,
+        }
+        return json.loads(canonical_json(settings))  # tuples -> lists, numpy scalars -> numbers
+
+
+# --- recording -------------------------------------------------------------------------------------
+
+
+class _EpisodeRecorder:
+    """Collects the rows of one episode into growing numpy buffers (one per field)."""
+
+    def __init__(self, expert: MPCExpert, episode: int, capacity: int = 8192) -> None:
+        self.expert = expert
+        self.episode = episode
+        self.rows = 0
+        self.buffers = {f.name: np.zeros((capacity, *f.shape), dtype=f.dtype) for f in FIELDS}
+        self.target_index = -1
+        self.target_xy = np.zeros(2)
+        self.new_segment = True
+
+    def _grow(self) -> None:
+        for name, buffer in self.buffers.items():
+            bigger = np.zeros((2 * len(buffer), *buffer.shape[1:]), dtype=buffer.dtype)
+            bigger[: len(buffer)] = buffer
+            self.buffers[name] = bigger
+
+    def on_step(self, record: StepRecord) -> None:
+        n = self.rows
+        if n == len(self.buffers["time"]):
+            self._grow()
+        buf = self.buffers
+        before, after = record.before, record.after
+        expert = self.expert
+        last = expert.last
+        params = expert.params
+        # the phases the action used: act() advances the gait clock before deciding
+        phases = expert.gait.phases
+        normalised = normalised_phase(phases, expert.gait.params.swing_ratio)
+        buf["base_lin_vel"][n] = before.lin_vel_base
+        buf["base_ang_vel"][n] = before.ang_vel_base
+        buf["v_cmd"][n] = record.command[:2]
+        buf["yaw_cmd"][n] = record.command[2]
+        buf["q"][n] = before.joint_pos
+        buf["dq"][n] = before.joint_vel
+        buf["ddq"][n] = (after.joint_vel - before.joint_vel) / CONTROL_DT
+        buf["phase"][n] = phases
+        buf["normalised_phase"][n] = normalised
+        buf["sine_phase"][n] = np.sin(normalised * np.pi)
+        buf["stance"][n] = last.stance
+        buf["foot_pos"][n] = before.foot_pos_base.reshape(-1)
+        buf["com"][n] = (before.com - before.base_pos) @ before.base_rot
+        buf["projected_gravity"][n] = before.projected_gravity
+        buf["foot_ref"][n] = last.foot_targets.reshape(-1)
+        buf["foot_pos_next"][n] = after.foot_pos_base.reshape(-1)
+        buf["step_height"][n] = params.step_height
+        buf["ride_height"][n] = params.ride_height
+        buf["stance_duration"][n] = params.stance_duration
+        buf["episode"][n] = self.episode
+        buf["target_index"][n] = self.target_index
+        buf["time"][n] = n * CONTROL_DT
+        buf["time_since_reset"][n] = before.time
+        buf["new_segment"][n] = self.new_segment
+        buf["base_pos"][n] = before.base_pos
+        buf["rpy"][n] = before.rpy
+        buf["target_xy"][n] = self.target_xy
+        buf["fell"][n] = after.fallen
+        self.new_segment = False
+        self.rows = n + 1
+
+    def columns(self) -> dict[str, np.ndarray]:
+        return {name: buffer[: self.rows] for name, buffer in self.buffers.items()}
+
+
+@dataclass
+class EpisodeStats:
+    """Counts of one episode."""
+
+    episode: int
+    targets: int = 0
+    targets_reached: int = 0
+    falls: int = 0
+    timeouts: int = 0
+    unstable: int = 0
+    """Targets abandoned because the physics diverged or the MPC's QP failed (then reset like a fall)."""
+    rows: int = 0
+
+
+def collect_episode(
+    built,
+    config: CollectConfig,
+    episode: int,
+    on_target: Callable[[EpisodeStats], None] | None = None,
+) -> tuple[dict[str, np.ndarray], EpisodeStats]:
+    """Run one episode and return its rows (numpy arrays by field name) and counts.
+
+    Deterministic: a fresh simulator and expert, draws from ``default_rng([seed, episode])``. For each
+    target, in order, the generator draws its distance and direction (:func:`krl.runner.random_targets`,
+    one target at a time, so a prefix of the draws never depends on the count), then a step height and
+    a ride height (drawn in every mode, used in ``ext``), so every mode sees the same draw sequence.
+    """
+    from krl.sim.robot import A1Sim
+
+    sim = A1Sim(built)
+    expert = MPCExpert(config.expert)
+    recorder = _EpisodeRecorder(expert, episode)
+    runner = Runner(sim, expert, config.command, on_step=recorder.on_step)
+    rng = np.random.default_rng([config.seed, episode])
+    spawn = np.asarray(sim.terrain.spawn_xy, dtype=float)
+    stats = EpisodeStats(episode=episode)
+    need_reset = True
+    anchor = spawn
+    for k in range(config.episode_targets(episode)):
+        if config.mode == "dyn2":
+            need_reset = True
+        if need_reset:
+            anchor = spawn
+        target = random_targets(rng, 1, (float(anchor[0]), float(anchor[1])), config.target_distance)[0]
+        step_height = float(rng.uniform(*config.step_height_range))
+        ride_height = float(rng.uniform(*config.ride_height_range))
+        if config.mode == "ext":
+            expert.set_heights(step_height=step_height, ride_height=ride_height)
+        recorder.target_index = episode * config.targets_per_episode + k
+        recorder.target_xy = target
+        if need_reset:
+            recorder.new_segment = True
+        stats.targets += 1
+        try:
+            result = runner.walk_to(target[None], config.target_time_limit, reset=need_reset)
+        except (SimulationUnstableError, MPCError):
+            stats.unstable += 1
+            need_reset = True
+        else:
+            if result.fell:
+                stats.falls += 1
+                need_reset = True
+            elif result.timed_out:
+                stats.timeouts += 1
+                need_reset = True
+            else:
+                stats.targets_reached += 1
+                anchor = target
+                need_reset = False
+        if on_target is not None:
+            on_target(stats)
+    stats.rows = recorder.rows
+    return recorder.columns(), stats
+
+
+# --- files -----------------------------------------------------------------------------------------
+
+
+def _fsync_dir(directory: Path) -> None:
+    with contextlib.suppress(OSError):  # not every filesystem supports it
+        fd = os.open(directory, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def _temp_name(path: Path) -> Path:
+    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+
+
+def _atomic_write(path: Path, write: Callable[[Path], None]) -> str:
+    """Write ``path`` through a temporary file in the same directory and ``os.replace``; returns the
+    sha256 of the bytes written. An interruption leaves the old file (or none) intact."""
+    tmp = _temp_name(path)
+    try:
+        write(tmp)
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        sha = file_sha256(tmp)
+        os.replace(tmp, path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+    _fsync_dir(path.parent)
+    return sha
+
+
+def _write_manifest(directory: Path, manifest: dict[str, Any]) -> None:
+    parts = sorted(manifest["parts"], key=lambda p: p["episode"])
+    manifest["parts"] = parts
+    manifest["totals"] = {
+        key: int(sum(p[key] for p in parts))
+        for key in ("rows", "targets", "targets_reached", "falls", "timeouts", "unstable")
+    }
+    manifest["totals"]["episodes"] = len(parts)
+    manifest["content_hash"] = dataset_hash(
+        manifest["metadata"]["settings"], (p["content_hash"] for p in parts)
+    )
+    manifest["updated"] = _now()
+    text = json.dumps(manifest, indent=1, sort_keys=False, allow_nan=False) + "\n"
+    _atomic_write(directory / MANIFEST_NAME, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+
+
+def _write_part(
+    directory: Path, columns: Mapping[str, np.ndarray], stats: EpisodeStats, metadata: Mapping[str, Any]
+) -> dict[str, Any]:
+    """Write one episode's part file atomically; returns its manifest entry."""
+    import pyarrow.parquet as pq
+
+    from krl import __version__
+
+    name = PART_PATTERN.format(episode=stats.episode)
+    part = {
+        "file": name,
+        "episode": stats.episode,
+        "rows": stats.rows,
+        "targets": stats.targets,
+        "targets_reached": stats.targets_reached,
+        "falls": stats.falls,
+        "timeouts": stats.timeouts,
+        "unstable": stats.unstable,
+        "content_hash": content_hash(columns),
+    }
+    file_meta = {
+        "dataset": {key: value for key, value in metadata.items() if key != "columns"},
+        "part": {**part, "krl_version": __version__, "created": _now()},
+    }
+    table = columns_to_table(columns, file_meta)
+    # Dictionary encoding only where values repeat (it inflates noisy float columns by ~50 %).
+    write = partial(pq.write_table, table, compression="zstd", use_dictionary=list(_DICTIONARY_COLUMNS))
+    part["sha256"] = _atomic_write(directory / name, write)
+    return part
+
+
+def _now() -> str:
+    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+
+
+@contextlib.contextmanager
+def _directory_lock(directory: Path) -> Iterator[None]:
+    """Refuse a second writer on the same directory (a stale lock of a dead process is taken over)."""
+    path = directory / LOCK_NAME
+    for _ in range(2):
+        try:
+            fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            try:
+                pid = int(path.read_text().strip() or "0")
+            except (OSError, ValueError):
+                pid = 0
+            alive = False
+            if pid > 0 and pid != os.getpid():
+                try:
+                    os.kill(pid, 0)
+                    alive = True
+                except ProcessLookupError:
+                    alive = False
+                except PermissionError:
+                    alive = True
+            if alive:
+                raise ValueError(f"{directory}: another collection (pid {pid}) is writing it") from None
+            with contextlib.suppress(FileNotFoundError):
+                path.unlink()
+            continue
+        with os.fdopen(fd, "w") as handle:
+            handle.write(f"{os.getpid()}\n")
+        break
+    else:
+        raise ValueError(f"{directory}: could not take the lock {path}")
+    try:
+        yield
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            path.unlink()
+
+
+def _flatten(value: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(value, dict):
+        out: dict[str, Any] = {}
+        for key, item in value.items():
+            out.update(_flatten(item, f"{prefix}{key}."))
+        return out
+    return {prefix[:-1]: value}
+
+
+def _settings_difference(old: Mapping[str, Any], new: Mapping[str, Any]) -> list[str]:
+    a, b = _flatten(dict(old)), _flatten(dict(new))
+    missing = "(unset)"
+    keys = sorted(set(a) | set(b))
+    return [
+        f"{k} {a.get(k, missing)!r} != {b.get(k, missing)!r}"
+        for k in keys
+        if a.get(k, missing) != b.get(k, missing)
+    ]
+
+
+def _is_own_file(name: str) -> bool:
+    return name.endswith(".tmp") and name.startswith((".part-", f".{MANIFEST_NAME}."))
+
+
+def _open_dataset(directory: Path, config: CollectConfig, settings: dict[str, Any]) -> dict[str, Any]:
+    """Create the manifest of a new dataset, or check and repair that of an existing one."""
+    from krl import __version__
+
+    manifest_path = directory / MANIFEST_NAME
+    for entry in directory.iterdir():  # leftovers of an interrupted write
+        if _is_own_file(entry.name):
+            with contextlib.suppress(FileNotFoundError):
+                entry.unlink()
+    if not manifest_path.exists():
+        others = [e.name for e in directory.iterdir() if e.name != LOCK_NAME]
+        if others:
+            raise ValueError(
+                f"{directory} exists and is not a krl dataset (no {MANIFEST_NAME}); choose a new --out"
+            )
+        metadata = {
+            "schema_version": SCHEMA_VERSION,
+            "krl_version": __version__,
+            "created": _now(),
+            "targets_requested": int(config.targets),
+            "settings": settings,
+            "columns": columns_description(),
+        }
+        manifest = {
+            "format": FORMAT_NAME,
+            "schema_version": SCHEMA_VERSION,
+            "metadata": metadata,
+            "parts": [],
+        }
+        _write_manifest(directory, manifest)
+        return manifest
+    manifest = read_manifest(directory)
+    difference = _settings_difference(manifest["metadata"]["settings"], settings)
+    if difference:
+        raise SettingsMismatchError(
+            f"{manifest_path}: settings differ from the existing dataset ({'; '.join(difference)}); "
+            "re-run with the original options or choose a new --out"
+        )
+    kept = []
+    for part in manifest["parts"]:
+        episode, path = int(part["episode"]), directory / part["file"]
+        if episode >= config.num_episodes or part["targets"] != config.episode_targets(episode):
+            planned = config.episode_targets(episode) if episode < config.num_episodes else 0
+            raise SettingsMismatchError(
+                f"{path}: episode {episode} holds {part['targets']} targets but --targets {config.targets} "
+                f"with --targets-per-episode {config.targets_per_episode} plans {planned} for it"
+            )
+        if not path.exists():
+            continue  # lost: collect it again
+        if file_sha256(path) != part["sha256"]:
+            raise DatasetError(
+                f"{path}: sha256 mismatch (corrupt or modified); delete it to collect that episode again"
+            )
+        kept.append(part)
+    changed = len(kept) != len(manifest["parts"])
+    manifest["parts"] = kept
+    if manifest["metadata"].get("targets_requested") != config.targets:
+        manifest["metadata"]["targets_requested"] = int(config.targets)
+        changed = True
+    if changed:
+        _write_manifest(directory, manifest)
+    return manifest
+
+
+# --- the collection --------------------------------------------------------------------------------
+
+
+@dataclass
+class CollectSummary:
+    """Outcome of :func:`collect_dataset`: dataset totals and what this call added."""
+
+    path: str
+    rows: int
+    targets: int
+    """Targets attempted in the whole dataset."""
+    targets_reached: int
+    falls: int
+    timeouts: int
+    unstable: int
+    episodes: int
+    sim_seconds: float
+    """Simulated time of the whole dataset [s]."""
+    wall_seconds: float
+    """Wall time of this call [s]."""
+    episodes_collected: int
+    """Episodes collected by this call (the rest were resumed)."""
+    rows_collected: int
+    """Rows collected by this call."""
+    content_hash: str
+
+    def as_dict(self) -> dict[str, Any]:
+        out = dataclasses.asdict(self)
+        out["sim_seconds"] = round(self.sim_seconds, 3)
+        out["wall_seconds"] = round(self.wall_seconds, 3)
+        collected_sim = self.rows_collected * CONTROL_DT
+        out["rows_per_second"] = round(self.rows_collected / max(self.wall_seconds, 1e-9), 1)
+        out["real_time_factor"] = round(collected_sim / max(self.wall_seconds, 1e-9), 2)
+        return out
+
+
+def _progress(enabled: bool, total: int):
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    return Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("targets"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        TextColumn("{task.fields[status]}"),
+        console=Console(stderr=True),
+        disable=not enabled,
+    )
+
+
+def collect_dataset(
+    out: str | Path,
+    config: CollectConfig,
+    *,
+    progress: bool = False,
+    on_episode: Callable[[dict[str, Any]], None] | None = None,
+) -> CollectSummary:
+    """Collect (or resume collecting) an expert dataset into the directory ``out``.
+
+    Finished episodes already listed in ``out/manifest.json`` are kept; the others are collected and each
+    is written atomically when it finishes. Settings that differ from the existing dataset's raise
+    :class:`SettingsMismatchError`. ``on_episode`` is called with each new part's manifest entry after
+    the manifest lists it. An interruption (Ctrl-C) loses only the episode in progress.
+    """
+    from krl.sim.model import build_model
+
+    start = time.perf_counter()
+    directory = Path(out)
+    if directory.exists() and not directory.is_dir():
+        raise ValueError(f"{directory} exists and is not a directory")
+    built = build_model(config.terrain, config.terrain_params, config.seed)
+    settings = config.settings(built.terrain)
+    directory.mkdir(parents=True, exist_ok=True)
+    rows_collected = 0
+    collected = 0
+    with _directory_lock(directory):
+        manifest = _open_dataset(directory, config, settings)
+        done = {int(p["episode"]) for p in manifest["parts"]}
+        todo = [e for e in range(config.num_episodes) if e not in done]
+        total = sum(config.episode_targets(e) for e in todo)
+        with _progress(progress, total) as bar:
+            task = bar.add_task("collecting", total=total, status="")
+            counts = {"falls": 0, "timeouts": 0}
+            for episode in todo:
+                bar.update(task, description=f"episode {episode + 1}/{config.num_episodes}")
+
+                def on_target(stats: EpisodeStats) -> None:
+                    falls = counts["falls"] + stats.falls + stats.unstable
+                    timeouts = counts["timeouts"] + stats.timeouts
+                    bar.update(task, advance=1, status=f"falls {falls} timeouts {timeouts}")
+
+                columns, stats = collect_episode(built, config, episode, on_target)
+                part = _write_part(directory, columns, stats, manifest["metadata"])
+                manifest["parts"].append(part)
+                _write_manifest(directory, manifest)
+                counts["falls"] += stats.falls + stats.unstable
+                counts["timeouts"] += stats.timeouts
+                rows_collected += stats.rows
+                collected += 1
+                if on_episode is not None:
+                    on_episode(part)
+    totals = manifest["totals"]
+    return CollectSummary(
+        path=str(directory),
+        rows=totals["rows"],
+        targets=totals["targets"],
+        targets_reached=totals["targets_reached"],
+        falls=totals["falls"],
+        timeouts=totals["timeouts"],
+        unstable=totals["unstable"],
+        episodes=totals["episodes"],
+        sim_seconds=totals["rows"] * CONTROL_DT,
+        wall_seconds=time.perf_counter() - start,
+        episodes_collected=collected,
+        rows_collected=rows_collected,
+        content_hash=manifest["content_hash"],
+    )
+
+
+# --- CLI -------------------------------------------------------------------------------------------
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``krl collect``."""
+    from krl.cli import _add_terrain_arguments, add_expert_arguments
+
+    parser.add_argument("--out", required=True, help="dataset directory (created, or resumed if it exists)")
+    parser.add_argument("--targets", type=int, default=500, help="number of targets to walk to")
+    parser.add_argument(
+        "--mode",
+        choices=MODES,
+        default="base",
+        help="base: fixed settings; ext: random step/ride height per target; dyn2: reset before every target",
+    )
+    parser.add_argument(
+        "--targets-per-episode", type=int, default=10, help="targets per part file (the unit of resumption)"
+    )
+    parser.add_argument(
+        "--target-time-limit", type=float, default=TARGET_TIME_LIMIT, help="time allowed per target [s]"
+    )
+    parser.add_argument("--target-distance", metavar="LOW,HIGH", help=argparse.SUPPRESS)  # for tests
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    add_expert_arguments(parser)
+    _add_terrain_arguments(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    """``krl collect``: returns the exit status."""
+    from krl.cli import _parse_params, _parse_vector, expert_params_from_args
+
+    distance = DEFAULT_TARGET_DISTANCE
+    if args.target_distance:
+        low, high = _parse_vector(args.target_distance, 2, "--target-distance")
+        distance = (low, high)
+    config = CollectConfig(
+        targets=args.targets,
+        mode=args.mode,
+        targets_per_episode=args.targets_per_episode,
+        target_time_limit=args.target_time_limit,
+        seed=args.seed,
+        expert=expert_params_from_args(args),
+        terrain=args.terrain,
+        terrain_params=_parse_params(args.param),
+        target_distance=distance,
+    )
+    show = not args.quiet and sys.stderr.isatty()
+    summary = collect_dataset(args.out, config, progress=show).as_dict()
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        for key, value in summary.items():
+            print(f"{key}: {value}")
+    return 0
+
+
+__all__ = [
+    "DEFAULT_TARGET_DISTANCE",
+    "MODES",
+    "CollectConfig",
+    "CollectSummary",
+    "EpisodeStats",
+    "SettingsMismatchError",
+    "add_arguments",
+    "collect_dataset",
+    "collect_episode",
+    "run",
+]

@@ -1,0 +1,228 @@
+"""``krl kernel …``: train, evaluate and run kernels."""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from importlib.resources import files
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+SHIPPED_MODELS: tuple[str, ...] = ("base", "ext")
+"""Kernels shipped with krl (``src/krl/kernel/models/kernel-<name>.npz``)."""
+
+
+def shipped_model_path(name: str) -> Path:
+    """Path of a shipped kernel by name."""
+    return Path(str(files("krl.kernel") / "models" / f"kernel-{name}.npz"))
+
+
+def resolve_model(model: str) -> Path:
+    """A shipped model's name (``base``, ``ext``) or a path to a kernel file -> the file's path."""
+    if model in SHIPPED_MODELS:
+        return shipped_model_path(model)
+    return Path(model)
+
+
+def _load(model: str):
+    from krl.kernel.model import load_kernel
+
+    return load_kernel(resolve_model(model))
+
+
+# --- train -------------------------------------------------------------------------------------------
+
+
+def add_train_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--data", required=True, help="expert dataset directory (krl collect)")
+    parser.add_argument(
+        "--out", required=True, help="run directory: kernel.npz, config.json, checkpoint, tb/"
+    )
+    parser.add_argument("--variant", default="base", help="base, ind, ext, dyn1, dyn2")
+    parser.add_argument("--epochs", type=int, default=30)
+    parser.add_argument("--patience", type=int, default=5, help="early-stopping patience [epochs]")
+    parser.add_argument("--lr", type=float, default=0.0024, help="initial learning rate")
+    parser.add_argument("--lr-decay", type=float, default=0.7, help="final/initial learning rate (linear)")
+    parser.add_argument("--batch-size", type=int, default=200)
+    parser.add_argument("--hidden", default="256,256,256,256", help="hidden layer widths")
+    parser.add_argument("--activation", default="relu", choices=["relu", "tanh"])
+    parser.add_argument("--dropout", type=float, default=0.0002)
+    parser.add_argument("--batch-norm", action="store_true")
+    parser.add_argument("--max-train-targets", type=int, help="train on this many targets only")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--threads", type=int, help="PyTorch CPU threads")
+    parser.add_argument("--no-tensorboard", action="store_true")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--json", action="store_true")
+
+
+def config_from_args(args: argparse.Namespace):
+    from krl.kernel.model import NetworkConfig
+    from krl.kernel.train import TrainConfig
+
+    try:
+        hidden = tuple(int(part) for part in args.hidden.split(","))
+    except ValueError:
+        raise ValueError(f"--hidden expects comma-separated integers, got {args.hidden!r}") from None
+    return TrainConfig(
+        variant=args.variant,
+        network=NetworkConfig(
+            hidden=hidden, activation=args.activation, dropout=args.dropout, batch_norm=args.batch_norm
+        ),
+        learning_rate=args.lr,
+        lr_decay=args.lr_decay,
+        batch_size=args.batch_size,
+        epochs=args.epochs,
+        patience=args.patience,
+        max_train_targets=args.max_train_targets,
+        seed=args.seed,
+        threads=args.threads,
+    )
+
+
+def run_train(args: argparse.Namespace) -> int:
+    from krl.cli import emit
+    from krl.data.schema import load_dataset
+    from krl.kernel.train import train_kernel
+
+    config = config_from_args(args)
+    dataset = load_dataset(args.data)
+    result = train_kernel(
+        dataset, config, args.out, progress=not args.quiet, tensorboard=not args.no_tensorboard
+    )
+    emit(
+        {
+            "variant": config.variant,
+            "val_l1": result.val_l1,
+            "train_seconds": round(result.train_seconds, 1),
+            "best_epoch": result.best_epoch,
+            "epochs_run": result.epochs_run,
+            "train_targets": result.kernel.metadata["train_targets"],
+            "val_targets": result.kernel.metadata["val_targets"],
+            "kernel": str(result.kernel_path),
+        },
+        args.json,
+    )
+    return 0
+
+
+# --- eval --------------------------------------------------------------------------------------------
+
+
+def add_eval_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--model", default="base", help="shipped kernel name (base, ext) or a kernel file")
+    parser.add_argument("--data", help="score on this dataset instead of fresh expert data")
+    parser.add_argument("--targets", type=int, default=3, help="targets of fresh validation data")
+    parser.add_argument("--seed", type=int, default=12345, help="seed of the fresh validation data")
+    parser.add_argument("--json", action="store_true")
+
+
+def score(kernel, dataset) -> dict[str, Any]:
+    """Mean absolute error [m] of ``kernel`` on every row of ``dataset``, overall and per axis."""
+    from krl.kernel.features import features_from_columns, labels_from_columns
+
+    columns = {name: dataset[name] for name in dataset.keys()}
+    features = features_from_columns(kernel.variant, columns)
+    labels = labels_from_columns(kernel.variant, columns)
+    error = np.abs(kernel.predict(features) - labels).reshape(len(labels), -1, 3)
+    return {
+        "val_l1": float(error.mean()),
+        "val_l1_xyz": [float(e) for e in error.mean(axis=(0, 1))],
+        "rows": int(dataset.num_rows),
+        "targets": int(dataset.num_targets),
+    }
+
+
+def fresh_validation_data(kernel, targets: int, seed: int, directory: Path):
+    """Collect ``targets`` targets of expert data with the kernel's training settings into ``directory``."""
+    from krl.control.expert import ExpertParams
+    from krl.control.mpc import MPCParams
+    from krl.data.collect import CollectConfig, collect_dataset
+    from krl.data.schema import load_dataset
+
+    settings = kernel.metadata.get("dataset_settings", {})
+    expert = dict(settings.get("expert", {}))
+    mpc = expert.pop("mpc", None)
+    params = ExpertParams(**expert, **({"mpc": MPCParams(**_tuples(mpc))} if mpc else {}))
+    mode = settings.get("mode", "base")
+    if mode not in ("base", "ext", "dyn2"):
+        mode = "base"
+    config = CollectConfig(targets=targets, mode=mode, seed=seed, expert=params, targets_per_episode=targets)
+    collect_dataset(directory, config)
+    return load_dataset(directory)
+
+
+def _tuples(values: dict[str, Any]) -> dict[str, Any]:
+    return {key: tuple(value) if isinstance(value, list) else value for key, value in values.items()}
+
+
+def run_eval(args: argparse.Namespace) -> int:
+    from krl.cli import emit
+    from krl.data.schema import load_dataset
+
+    kernel = _load(args.model)
+    if args.data:
+        result = score(kernel, load_dataset(args.data))
+        source = args.data
+    else:
+        if args.targets < 1:
+            raise ValueError(f"--targets must be >= 1, got {args.targets}")
+        with tempfile.TemporaryDirectory(prefix="krl-eval-") as directory:
+            result = score(kernel, fresh_validation_data(kernel, args.targets, args.seed, Path(directory)))
+        source = f"fresh expert data ({args.targets} targets, seed {args.seed})"
+    emit(
+        {
+            "variant": kernel.variant,
+            "model": str(resolve_model(args.model)),
+            **result,
+            "data": source,
+            "train_val_l1": kernel.metadata.get("val_l1"),
+            "train_seconds": kernel.metadata.get("train_seconds"),
+            "train_targets": kernel.metadata.get("train_targets"),
+        },
+        args.json,
+    )
+    return 0
+
+
+# --- run ---------------------------------------------------------------------------------------------
+
+
+def add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    from krl.cli import add_run_arguments as add_common
+
+    add_common(parser)
+    parser.add_argument("--model", default="base", help="shipped kernel name (base, ext) or a kernel file")
+    parser.add_argument("--step-height", type=float, help="kernel-ext: step height [m], 0.05-0.18")
+    parser.add_argument("--ride-height", type=float, help="kernel-ext: ride height [m], 0.18-0.28")
+
+
+def run_run(args: argparse.Namespace) -> int:
+    from krl.cli import emit, run_controller
+    from krl.kernel.controller import KernelController
+
+    kernel = _load(args.model)
+    controller = KernelController(kernel, step_height=args.step_height, ride_height=args.ride_height)
+    summary = run_controller(args, controller)
+    summary["model"] = str(resolve_model(args.model))
+    summary["variant"] = kernel.variant
+    emit(summary, args.json)
+    return 0
+
+
+def register(subparsers) -> None:
+    """Add ``krl kernel train|eval|run`` to the main parser's subcommands."""
+    kernel = subparsers.add_parser("kernel", help="the kernel: train, evaluate, run").add_subparsers(
+        dest="kernel_command", required=True, metavar="KERNEL_COMMAND"
+    )
+    p = kernel.add_parser("train", help="train a kernel variant on an expert dataset")
+    add_train_arguments(p)
+    p.set_defaults(func=run_train)
+    p = kernel.add_parser("eval", help="score a kernel on fresh expert data (or --data)")
+    add_eval_arguments(p)
+    p.set_defaults(func=run_eval)
+    p = kernel.add_parser("run", help="walk the robot with a kernel to waypoints or at a fixed command")
+    add_run_arguments(p)
+    p.set_defaults(func=run_run)

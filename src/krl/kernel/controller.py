@@ -1,0 +1,112 @@
+"""The kernel as a walking controller: gait clock + command -> kernel -> foot targets -> IK -> PD.
+
+Each control step the gait generator advances, the kernel maps (command, phases[, heights, state]) to
+the four feet's positions in the base frame, the analytic IK turns them into joint targets, and the
+Table 4.2 PD tracks them at 1 kHz. Features are built by the same function that built the training
+features (:func:`krl.kernel.features.features_from_columns`), so the two cannot drift apart.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from krl.control.expert import RIDE_HEIGHT_RANGE, STEP_HEIGHT_RANGE
+from krl.control.gait import GaitGenerator, gait_params
+from krl.control.kinematics import inverse_kinematics
+from krl.control.types import JointCommand
+from krl.kernel.features import HISTORY, features_from_columns
+from krl.kernel.model import Kernel
+from krl.robots.a1.constants import NUM_LEGS
+from krl.sim.robot import RobotState
+
+
+def _training_setting(kernel: Kernel, name: str, default):
+    expert = kernel.metadata.get("dataset_settings", {}).get("expert", {})
+    return expert.get(name, default)
+
+
+class KernelController:
+    """Implements :class:`krl.control.types.Controller` with a trained kernel.
+
+    Args:
+        kernel: the trained kernel.
+        gait: gait name; default: the gait of the kernel's training data.
+        stance_duration: τ_stance [s]; default: that of the training data.
+        step_height, ride_height: kernel-ext's height inputs [m] (ignored by other variants);
+            default: the training data's fixed settings (or the middle of the ranges for ext data).
+    """
+
+    def __init__(
+        self,
+        kernel: Kernel,
+        gait: str | None = None,
+        stance_duration: float | None = None,
+        step_height: float | None = None,
+        ride_height: float | None = None,
+    ) -> None:
+        self.kernel = kernel
+        gait = gait or _training_setting(kernel, "gait", "trot")
+        stance_duration = stance_duration or _training_setting(kernel, "stance_duration", 0.2)
+        self.gait = GaitGenerator(gait_params(gait, stance_duration=stance_duration))
+        self.step_height = 0.0
+        self.ride_height = 0.0
+        self.set_heights(
+            step_height if step_height is not None else _training_setting(kernel, "step_height", 0.08),
+            ride_height if ride_height is not None else _training_setting(kernel, "ride_height", 0.25),
+        )
+        self._history: deque[dict[str, np.ndarray]] = deque(maxlen=HISTORY)
+        self.last_targets: np.ndarray | None = None
+        """Foot targets of the last step, base frame [m]. Shape: (4, 3)."""
+
+    def set_heights(self, step_height: float, ride_height: float) -> None:
+        """Set kernel-ext's step and ride height inputs [m] (validated against the training ranges)."""
+        for name, value, (low, high) in (
+            ("step_height", step_height, STEP_HEIGHT_RANGE),
+            ("ride_height", ride_height, RIDE_HEIGHT_RANGE),
+        ):
+            if not low <= value <= high:
+                raise ValueError(f"{name} must be in [{low}, {high}] m, got {value}")
+        self.step_height, self.ride_height = float(step_height), float(ride_height)
+
+    def reset(self, state: RobotState) -> None:
+        self.gait.reset()
+        self._history.clear()
+        self.last_targets = None
+
+    def _row(self, state: RobotState, command: np.ndarray) -> dict[str, np.ndarray]:
+        return {
+            "v_cmd": np.asarray(command[:2], dtype=np.float64)[None],
+            "yaw_cmd": np.array([command[2]], dtype=np.float64),
+            "normalised_phase": self.gait.normalised_phases[None],
+            "sine_phase": self.gait.sine_phases[None],
+            "step_height": np.array([self.step_height]),
+            "ride_height": np.array([self.ride_height]),
+            "base_lin_vel": state.lin_vel_base[None],
+            "base_ang_vel": state.ang_vel_base[None],
+            "q": state.joint_pos[None],
+            "dq": state.joint_vel[None],
+            "com": ((state.com - state.base_pos) @ state.base_rot)[None],
+            "projected_gravity": state.projected_gravity[None],
+        }
+
+    def foot_targets(self, state: RobotState, command: np.ndarray) -> np.ndarray:
+        """Advance the gait clock and return the kernel's foot targets, base frame [m]. Shape: (4, 3)."""
+        self.gait.step()
+        row = self._row(state, np.asarray(command, dtype=np.float64))
+        variant = self.kernel.variant
+        if variant == "dyn2":
+            self._history.append(row)
+            rows = [self._history[0]] * (HISTORY - len(self._history)) + list(self._history)
+            columns = {key: np.concatenate([r[key] for r in rows]) for key in row}
+            columns["new_segment"] = np.zeros(HISTORY, dtype=bool)
+            features = features_from_columns(variant, columns)[-1:]
+        else:
+            features = features_from_columns(variant, row)
+        return self.kernel.predict(features).reshape(NUM_LEGS, 3)
+
+    def act(self, state: RobotState, command: np.ndarray) -> JointCommand:
+        targets = self.foot_targets(state, command)
+        self.last_targets = targets
+        return JointCommand(inverse_kinematics(targets).q)
