@@ -13,6 +13,7 @@ import hashlib
 import json
 import os
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -205,6 +206,7 @@ def train_kernel(
     progress: bool = True,
     tensorboard: bool = True,
     data: dict[str, np.ndarray] | None = None,
+    on_epoch: Callable[[int, float], None] | None = None,
 ) -> TrainResult:
     """Train (or resume training) a kernel; writes ``kernel.npz``, ``config.json`` and a checkpoint.
 
@@ -216,6 +218,8 @@ def train_kernel(
         progress: show a progress bar.
         tensorboard: write TensorBoard logs to ``out_dir/tb``.
         data: precomputed :func:`prepare_data` output (to share between runs on one dataset).
+        on_epoch: called with (epoch, validation L1 [m]) after each epoch's checkpoint is written;
+            it may raise to stop the run (Optuna pruning, tests), which can then be resumed.
     """
     import torch
 
@@ -355,6 +359,8 @@ def train_kernel(
                 checkpoint_path,
             )
             bar.update(task, advance=1, description=f"kernel-{config.variant} val L1 {val_l1:.2e} m")
+            if on_epoch is not None:
+                on_epoch(epoch, val_l1)
     if writer is not None:
         writer.close()
 

@@ -1,0 +1,195 @@
+"""Kernel features, labels, split, file format, NumPy inference, training with resume."""
+
+from typing import ClassVar
+
+import numpy as np
+import pytest
+import torch
+
+from krl.kernel.features import (
+    features_from_columns,
+    input_names,
+    labels_from_columns,
+    split_by_target,
+    stack_history,
+)
+from krl.kernel.model import Kernel, KernelFileError, NetworkConfig, load_kernel
+from krl.kernel.train import TrainConfig, _build_network, train_kernel
+
+
+def columns(n=6):
+    rng = np.random.default_rng(0)
+    return {
+        "v_cmd": rng.normal(size=(n, 2)),
+        "yaw_cmd": rng.normal(size=n),
+        "normalised_phase": rng.uniform(0, 2, size=(n, 4)),
+        "sine_phase": rng.uniform(-1, 1, size=(n, 4)),
+        "step_height": np.full(n, 0.1),
+        "ride_height": np.full(n, 0.22),
+        "base_lin_vel": rng.normal(size=(n, 3)),
+        "base_ang_vel": rng.normal(size=(n, 3)),
+        "q": rng.normal(size=(n, 12)),
+        "dq": rng.normal(size=(n, 12)),
+        "com": rng.normal(size=(n, 3)),
+        "projected_gravity": rng.normal(size=(n, 3)),
+        "stance": np.tile([True, False, False, True], (n, 1)),
+        "foot_ref": np.full((n, 12), 1.0),
+        "foot_pos_next": np.full((n, 12), 2.0),
+        "new_segment": np.array([True, False, False, True, False, False][:n]),
+        "episode": np.zeros(n, int),
+        "target_index": np.repeat(np.arange(n // 2), 2),
+    }
+
+
+def test_feature_layouts_hand_worked():
+    c = columns()
+    base = features_from_columns("base", c)
+    np.testing.assert_allclose(
+        base[2], np.r_[c["v_cmd"][2], c["yaw_cmd"][2], c["normalised_phase"][2]], rtol=1e-6
+    )
+    assert features_from_columns("ext", c).shape == (6, 9)
+    assert features_from_columns("dyn1", c).shape == (6, 43)
+    assert features_from_columns("dyn2", c).shape == (6, 215)
+    ind = features_from_columns("ind", c)
+    assert ind.shape == (24, 8)
+    np.testing.assert_allclose(ind[4 * 2 + 1, 3], c["normalised_phase"][2, 1], rtol=1e-6)  # step 2, leg FL
+    np.testing.assert_array_equal(ind[4 * 2 + 1, 4:], [0, 1, 0, 0])
+    for variant in ("base", "ind", "ext", "dyn1", "dyn2"):
+        assert len(input_names(variant)) == features_from_columns(variant, c).shape[1]
+
+
+def test_history_restarts_at_segment_boundaries():
+    x = np.arange(6, dtype=float)[:, None]
+    stacked = stack_history(x, np.array([True, False, False, True, False, False]), history=3)
+    np.testing.assert_array_equal(stacked[:, 0], [0, 0, 0, 3, 3, 3])
+    np.testing.assert_array_equal(stacked[:, 1], [0, 0, 1, 3, 3, 4])
+    np.testing.assert_array_equal(stacked[:, 2], [0, 1, 2, 3, 4, 5])
+
+
+def test_labels_are_swing_targets_and_realised_stance_positions():
+    labels = labels_from_columns("base", columns()).reshape(-1, 4, 3)
+    np.testing.assert_array_equal(labels[:, [0, 3]], 2.0)  # stance: p'
+    np.testing.assert_array_equal(labels[:, [1, 2]], 1.0)  # swing: p_ref
+    assert labels_from_columns("ind", columns()).shape == (24, 3)
+
+
+def test_split_keeps_targets_whole_and_is_seeded():
+    target = np.repeat(np.arange(50), 7)
+    validation = split_by_target(target, 0.2, seed=3)
+    assert validation.sum() == 10 * 7
+    for t in range(50):
+        assert validation[target == t].all() or not validation[target == t].any()
+    np.testing.assert_array_equal(validation, split_by_target(target, 0.2, seed=3))
+    with pytest.raises(ValueError, match="at least 2 targets"):
+        split_by_target(np.zeros(5), 0.2, 0)
+
+
+@pytest.mark.parametrize("batch_norm", [False, True])
+def test_numpy_inference_matches_torch_and_survives_a_round_trip(tmp_path, batch_norm):
+    from krl.kernel.train import _export_weights
+
+    config = TrainConfig(network=NetworkConfig(hidden=(16, 8), batch_norm=batch_norm, activation="tanh"))
+    torch.manual_seed(0)
+    net = _build_network(config, 7, 12)
+    if batch_norm:  # give the running statistics non-trivial values
+        net.train()
+        net(torch.randn(64, 7) * 3 + 1)
+    net.eval()
+    kernel = Kernel(
+        "base",
+        config.network,
+        _export_weights(net, config),
+        np.zeros(7),
+        np.ones(7),
+        np.zeros(12),
+        np.ones(12),
+        {"note": "test"},
+    )
+    x = np.random.default_rng(1).normal(size=(5, 7))
+    with torch.no_grad():
+        expected = net(torch.from_numpy(x.astype(np.float32))).numpy()
+    np.testing.assert_allclose(kernel.predict(x), expected, atol=1e-5)
+    loaded = load_kernel(kernel.save(tmp_path / "k.npz"))
+    np.testing.assert_allclose(loaded.predict(x), expected, atol=1e-5)
+    assert loaded.metadata == {"note": "test"}
+    with pytest.raises(ValueError, match="expects 7 inputs"):
+        loaded.predict(np.zeros(3))
+
+
+def test_corrupt_and_mismatched_kernel_files(tmp_path):
+    missing = tmp_path / "none.npz"
+    with pytest.raises(KernelFileError, match="not found"):
+        load_kernel(missing)
+    junk = tmp_path / "junk.npz"
+    junk.write_bytes(b"not a zip file at all")
+    with pytest.raises(KernelFileError, match="corrupt"):
+        load_kernel(junk)
+    config = NetworkConfig(hidden=(4,))
+    weights = [np.zeros((4, 9)), np.zeros(4), np.zeros((12, 4)), np.zeros(12)]  # 9 inputs: ext, not base
+    kernel = Kernel("base", config, weights, np.zeros(9), np.ones(9), np.zeros(12), np.ones(12), {})
+    path = kernel.save(tmp_path / "wrong.npz")
+    with pytest.raises(KernelFileError, match="kernel-base must map 7 inputs"):
+        load_kernel(path)
+    truncated = tmp_path / "truncated.npz"
+    truncated.write_bytes(path.read_bytes()[:200])
+    with pytest.raises(KernelFileError):
+        load_kernel(truncated)
+
+
+class FakeDataset(dict):
+    """The part of krl.data.schema.Dataset that training uses."""
+
+    content_hash = "fake"
+    settings: ClassVar[dict] = {"expert": {"stance_duration": 0.2}}
+
+
+def synthetic_dataset(targets=20, per_target=60):
+    """Foot positions as a smooth function of command and phase, like the expert's."""
+    rng = np.random.default_rng(5)
+    n = targets * per_target
+    phase = rng.uniform(0, 2, size=(n, 4))
+    v = rng.uniform(-0.5, 0.5, size=(n, 2))
+    feet = np.concatenate(
+        [0.1 * np.sin(np.pi * phase[:, :, None]) + v[:, None, :1] * 0.2 + np.zeros(3)], axis=0
+    )
+    c = columns(n)
+    c.update(
+        v_cmd=v,
+        normalised_phase=phase,
+        foot_ref=feet.reshape(n, 12),
+        foot_pos_next=feet.reshape(n, 12),
+        target_index=np.repeat(np.arange(targets), per_target),
+        new_segment=np.zeros(n, bool),
+    )
+    return FakeDataset(c)
+
+
+def test_training_learns_and_resumes_exactly(tmp_path):
+    dataset = synthetic_dataset()
+    config = TrainConfig(
+        network=NetworkConfig(hidden=(32, 32)), epochs=4, patience=10, batch_size=64, threads=1
+    )
+    full = train_kernel(dataset, config, tmp_path / "full", progress=False, tensorboard=False)
+    assert full.history[-1]["val_l1"] < full.history[0]["val_l1"]
+    assert full.epochs_run == 4
+
+    def stop_after_second(epoch, _):
+        if epoch == 1:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        train_kernel(
+            dataset,
+            config,
+            tmp_path / "resumed",
+            progress=False,
+            tensorboard=False,
+            on_epoch=stop_after_second,
+        )
+    resumed = train_kernel(dataset, config, tmp_path / "resumed", progress=False, tensorboard=False)
+    assert [h["val_l1"] for h in resumed.history] == [h["val_l1"] for h in full.history]
+    for a, b in zip(resumed.kernel.weights, full.kernel.weights, strict=True):
+        np.testing.assert_array_equal(a, b)
+    other = TrainConfig(network=NetworkConfig(hidden=(32, 32)), epochs=5, batch_size=64)
+    with pytest.raises(ValueError, match="other settings"):
+        train_kernel(dataset, other, tmp_path / "resumed", progress=False, tensorboard=False)
