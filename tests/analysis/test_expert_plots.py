@@ -12,6 +12,14 @@ import pytest
 from krl.analysis import expert_plots as ep
 from krl.timing import CONTROL_DT
 
+
+def test_nominal_heights_are_the_expert_defaults():
+    from krl.control.expert import ExpertParams
+
+    params = ExpertParams()
+    assert (ep.NOMINAL_RIDE_HEIGHT, ep.NOMINAL_STEP_HEIGHT) == (params.ride_height, params.step_height)
+
+
 # --- metric -------------------------------------------------------------------------------------------
 
 

@@ -86,6 +86,10 @@ RIDE_HEIGHTS: tuple[float, ...] = (0.18, 0.21, 0.25, 0.28)
 """Ride heights of the Fig. A.2 sweep [m] (the expert's range is 0.18-0.28 m)."""
 STEP_HEIGHTS: tuple[float, ...] = (0.05, 0.09, 0.13, 0.18)
 """Step heights of the Fig. A.3 sweep [m] (the expert's range is 0.05-0.18 m)."""
+NOMINAL_RIDE_HEIGHT: float = 0.25
+"""Ride height wherever it is not swept [m] (``ExpertParams``' default)."""
+NOMINAL_STEP_HEIGHT: float = 0.08
+"""Step height wherever it is not swept [m] (``ExpertParams``' default)."""
 
 DEFAULT_TARGETS: int = 10
 """Random waypoints per CoM condition (about 95 s of walking)."""
@@ -366,7 +370,7 @@ def _run_walk(job: WalkJob) -> dict[str, Any]:
 def _run_hold(job: HoldJob) -> dict[str, Any]:
     from krl.runner import Runner
 
-    expert, sim = _expert_and_sim(SWEEP_STANCE, 0.25, 0.08, job.seed)
+    expert, sim = _expert_and_sim(SWEEP_STANCE, NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT, job.seed)
     runner = Runner(sim, expert)
     error = None
     try:
@@ -415,13 +419,14 @@ def _waypoints(settings: Settings) -> tuple[tuple[float, float], ...]:
 
 def _com_conditions(which: str) -> list[tuple[str, dict[str, float]]]:
     """(legend label, expert settings) per condition of a CoM figure."""
+    ride, step = NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT
     if which == "com-variance":
-        return [(f"τ_stance = {s:g} s", {"stance": s, "ride": 0.25, "step": 0.08}) for s in STANCE_DURATIONS]
+        return [(f"τ_stance = {s:g} s", {"stance": s, "ride": ride, "step": step}) for s in STANCE_DURATIONS]
     if which == "ride-height":
         return [
-            (f"ride height {h:g} m", {"stance": SWEEP_STANCE, "ride": h, "step": 0.08}) for h in RIDE_HEIGHTS
+            (f"ride height {h:g} m", {"stance": SWEEP_STANCE, "ride": h, "step": step}) for h in RIDE_HEIGHTS
         ]
-    return [(f"step height {h:g} m", {"stance": SWEEP_STANCE, "ride": 0.25, "step": h}) for h in STEP_HEIGHTS]
+    return [(f"step height {h:g} m", {"stance": SWEEP_STANCE, "ride": ride, "step": h}) for h in STEP_HEIGHTS]
 
 
 def _sweep(settings: Settings) -> list[tuple[str, float, tuple[float, float, float]]]:
