@@ -3,6 +3,7 @@
 import json
 import os
 
+import numpy as np
 import pytest
 
 from krl.cli import main
@@ -26,8 +27,8 @@ def test_render_writes_a_png(tmp_path, terrain, capsys):
     assert main(["render", "--terrain", terrain, "--out", str(out), "--width", "320", "--height", "240"]) == 0
     image = Image.open(out)
     assert image.size == (320, 240)
-    pixels = list(image.convert("L").getdata())
-    assert max(pixels) - min(pixels) > 50  # not a blank frame
+    pixels = np.asarray(image.convert("L"))
+    assert int(pixels.max()) - int(pixels.min()) > 50  # not a blank frame
     assert "wrote" in capsys.readouterr().out
 
 
@@ -65,3 +66,40 @@ def test_view_without_display_explains(monkeypatch, capsys):
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     assert main(["view", "--terrain", "flat"]) == 2
     assert "krl render" in capsys.readouterr().err
+
+
+def test_expert_run_json(capsys):
+    assert main(["expert", "run", "--command", "0.3,0,0", "--duration", "2.5", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    for key in ("targets_reached", "fell", "sim_seconds", "wall_seconds", "mpc_ms_median", "mean_velocity"):
+        assert key in result
+    assert not result["fell"] and result["sim_seconds"] == pytest.approx(2.5)
+    assert len(result["mean_velocity"]) == 3
+
+
+def test_expert_run_to_given_waypoints(capsys):
+    assert main(["expert", "run", "--target", "0.8,0", "--target", "0.8,0.8", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["targets_reached"] == 2 and not result["fell"]
+
+
+@needs_gl
+def test_expert_run_writes_a_video(tmp_path, capsys):
+    import imageio.v2 as imageio
+
+    video = tmp_path / "walk.mp4"
+    assert main(["expert", "run", "--command", "0.2,0,0", "--duration", "2.1", "--video", str(video)]) == 0
+    assert imageio.get_reader(video).count_frames() == pytest.approx(63, abs=1)  # 2.1 s at 30 fps
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["expert", "run", "--stance-duration", "-0.2"], "stance_duration"),
+        (["expert", "run", "--step-height", "0.5"], "step_height"),
+        (["expert", "run", "--command", "0.3,0"], "--command expects 3"),
+    ],
+)
+def test_expert_run_bad_options(argv, message, capsys):
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
