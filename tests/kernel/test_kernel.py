@@ -1,7 +1,5 @@
 """Kernel features, labels, split, file format, NumPy inference, training with resume."""
 
-from typing import ClassVar
-
 import numpy as np
 import pytest
 import torch
@@ -17,31 +15,7 @@ from krl.kernel.model import Kernel, KernelFileError, NetworkConfig, load_kernel
 from krl.kernel.train import TrainConfig, _build_network, train_kernel
 
 
-def columns(n=6):
-    rng = np.random.default_rng(0)
-    return {
-        "v_cmd": rng.normal(size=(n, 2)),
-        "yaw_cmd": rng.normal(size=n),
-        "normalised_phase": rng.uniform(0, 2, size=(n, 4)),
-        "sine_phase": rng.uniform(-1, 1, size=(n, 4)),
-        "step_height": np.full(n, 0.1),
-        "ride_height": np.full(n, 0.22),
-        "base_lin_vel": rng.normal(size=(n, 3)),
-        "base_ang_vel": rng.normal(size=(n, 3)),
-        "q": rng.normal(size=(n, 12)),
-        "dq": rng.normal(size=(n, 12)),
-        "com": rng.normal(size=(n, 3)),
-        "projected_gravity": rng.normal(size=(n, 3)),
-        "stance": np.tile([True, False, False, True], (n, 1)),
-        "foot_ref": np.full((n, 12), 1.0),
-        "foot_pos_next": np.full((n, 12), 2.0),
-        "new_segment": np.array([True, False, False, True, False, False][:n]),
-        "episode": np.zeros(n, int),
-        "target_index": np.repeat(np.arange(n // 2), 2),
-    }
-
-
-def test_feature_layouts_hand_worked():
+def test_feature_layouts_hand_worked(columns):
     c = columns()
     base = features_from_columns("base", c)
     np.testing.assert_allclose(
@@ -66,7 +40,7 @@ def test_history_restarts_at_segment_boundaries():
     np.testing.assert_array_equal(stacked[:, 2], [0, 1, 2, 3, 4, 5])
 
 
-def test_labels_are_swing_targets_and_realised_stance_positions():
+def test_labels_are_swing_targets_and_realised_stance_positions(columns):
     labels = labels_from_columns("base", columns()).reshape(-1, 4, 3)
     np.testing.assert_array_equal(labels[:, [0, 3]], 2.0)  # stance: p'
     np.testing.assert_array_equal(labels[:, [1, 2]], 1.0)  # swing: p_ref
@@ -136,35 +110,7 @@ def test_corrupt_and_mismatched_kernel_files(tmp_path):
         load_kernel(truncated)
 
 
-class FakeDataset(dict):
-    """The part of krl.data.schema.Dataset that training uses."""
-
-    content_hash = "fake"
-    settings: ClassVar[dict] = {"expert": {"stance_duration": 0.2}}
-
-
-def synthetic_dataset(targets=20, per_target=60):
-    """Foot positions as a smooth function of command and phase, like the expert's."""
-    rng = np.random.default_rng(5)
-    n = targets * per_target
-    phase = rng.uniform(0, 2, size=(n, 4))
-    v = rng.uniform(-0.5, 0.5, size=(n, 2))
-    feet = np.concatenate(
-        [0.1 * np.sin(np.pi * phase[:, :, None]) + v[:, None, :1] * 0.2 + np.zeros(3)], axis=0
-    )
-    c = columns(n)
-    c.update(
-        v_cmd=v,
-        normalised_phase=phase,
-        foot_ref=feet.reshape(n, 12),
-        foot_pos_next=feet.reshape(n, 12),
-        target_index=np.repeat(np.arange(targets), per_target),
-        new_segment=np.zeros(n, bool),
-    )
-    return FakeDataset(c)
-
-
-def test_training_learns_and_resumes_exactly(tmp_path):
+def test_training_learns_and_resumes_exactly(tmp_path, synthetic_dataset):
     dataset = synthetic_dataset()
     config = TrainConfig(
         network=NetworkConfig(hidden=(32, 32)), epochs=4, patience=10, batch_size=64, threads=1

@@ -108,6 +108,46 @@ def run_train(args: argparse.Namespace) -> int:
     return 0
 
 
+# --- tune --------------------------------------------------------------------------------------------
+
+
+def add_tune_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--data", required=True, help="expert dataset directory (krl collect)")
+    parser.add_argument("--out", required=True, help="directory for trials, study.db and best.json")
+    parser.add_argument("--trials", type=int, default=20, help="trials to add to the study")
+    parser.add_argument("--epochs", type=int, default=10, help="epochs per trial (thesis: 10)")
+    parser.add_argument("--variant", default="base")
+    parser.add_argument("--storage", help="Optuna storage URL (default: sqlite:///OUT/study.db)")
+    parser.add_argument("--study-name", default="kernel")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the sampler and of the data split")
+    parser.add_argument("--threads", type=int, help="PyTorch CPU threads")
+    parser.add_argument("--quiet", action="store_true")
+    parser.add_argument("--json", action="store_true")
+
+
+def run_tune(args: argparse.Namespace) -> int:
+    from krl.cli import emit
+    from krl.data.schema import load_dataset
+    from krl.kernel.train import TrainConfig
+    from krl.kernel.tune import tune
+
+    base = TrainConfig(
+        variant=args.variant, epochs=args.epochs, patience=args.epochs, seed=args.seed, threads=args.threads
+    )
+    summary = tune(
+        load_dataset(args.data),
+        args.out,
+        args.trials,
+        base=base,
+        storage=args.storage,
+        study_name=args.study_name,
+        seed=args.seed,
+        progress=not args.quiet,
+    )
+    emit(summary, args.json)
+    return 0
+
+
 # --- eval --------------------------------------------------------------------------------------------
 
 
@@ -220,6 +260,9 @@ def register(subparsers) -> None:
     p = kernel.add_parser("train", help="train a kernel variant on an expert dataset")
     add_train_arguments(p)
     p.set_defaults(func=run_train)
+    p = kernel.add_parser("tune", help="Optuna search over Table A.2's space (resumable)")
+    add_tune_arguments(p)
+    p.set_defaults(func=run_tune)
     p = kernel.add_parser("eval", help="score a kernel on fresh expert data (or --data)")
     add_eval_arguments(p)
     p.set_defaults(func=run_eval)
