@@ -1,10 +1,10 @@
-"""Progress bars for long commands (rich), silent when disabled or when output is not a terminal."""
+"""Progress bars for long commands (rich on stderr), silent when disabled or when stderr is no terminal."""
 
 from __future__ import annotations
 
 import sys
-from contextlib import contextmanager
 
+from rich.console import Console
 from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
@@ -15,18 +15,26 @@ from rich.progress import (
 )
 
 
-@contextmanager
-def progress_bar(enabled: bool = True):
-    """A ``rich.progress.Progress`` (use ``add_task`` / ``update``), drawn on stderr when ``enabled`` and
-    stderr is a terminal; otherwise it records progress without printing anything."""
-    show = enabled and sys.stderr.isatty()
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        disable=not show,
-        transient=False,
-    ) as bar:
-        yield bar
+def progress_bar(
+    enabled: bool = True, unit: str = "", status: bool = False, transient: bool = False
+) -> Progress:
+    """A ``rich.progress.Progress`` to use as a context manager (``add_task`` / ``update``).
+
+    Args:
+        enabled: draw it (only if stderr is a terminal as well).
+        unit: text shown after the ``done/total`` count (e.g. ``"targets"``).
+        status: show each task's ``status`` field (pass ``status=...`` to ``add_task``/``update``).
+        transient: remove the bar when done.
+    """
+    columns = [TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn()]
+    if unit:
+        columns.append(TextColumn(unit))
+    columns += [TimeElapsedColumn(), TimeRemainingColumn()]
+    if status:
+        columns.append(TextColumn("{task.fields[status]}"))
+    return Progress(
+        *columns,
+        console=Console(stderr=True),
+        disable=not (enabled and sys.stderr.isatty()),
+        transient=transient,
+    )

@@ -481,17 +481,9 @@ class _Progress:
         self.enabled = enabled
         self._bar = None
         if enabled and sys.stderr.isatty():
-            from rich.console import Console
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+            from krl.progress import progress_bar
 
-            self._bar = Progress(
-                "[progress.description]{task.description}",
-                BarColumn(),
-                MofNCompleteColumn(),
-                TimeElapsedColumn(),
-                console=Console(stderr=True),
-                transient=True,
-            )
+            self._bar = progress_bar(enabled, transient=True)
             self._task = self._bar.add_task("expert conditions", total=total)
             self._bar.start()
 

@@ -54,6 +54,7 @@ from krl.data.schema import (
     file_sha256,
     read_manifest,
 )
+from krl.progress import progress_bar
 from krl.runner import TARGET_TIME_LIMIT, Runner, StepRecord, random_targets
 from krl.sim.robot import SimulationUnstableError
 from krl.timing import CONTROL_DT
@@ -566,30 +567,6 @@ class CollectSummary:
         return out
 
 
-def _progress(enabled: bool, total: int):
-    from rich.console import Console
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
-    return Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("targets"),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        TextColumn("{task.fields[status]}"),
-        console=Console(stderr=True),
-        disable=not enabled,
-    )
-
-
 def collect_dataset(
     out: str | Path,
     config: CollectConfig,
@@ -620,7 +597,7 @@ def collect_dataset(
         done = {int(p["episode"]) for p in manifest["parts"]}
         todo = [e for e in range(config.num_episodes) if e not in done]
         total = sum(config.episode_targets(e) for e in todo)
-        with _progress(progress, total) as bar:
+        with progress_bar(progress, unit="targets", status=True) as bar:
             task = bar.add_task("collecting", total=total, status="")
             counts = {"falls": 0, "timeouts": 0}
             for episode in todo:

@@ -311,7 +311,7 @@ def train_kernel(
     from krl.progress import progress_bar
 
     batches = (len(xt) + config.batch_size - 1) // config.batch_size
-    with progress_bar(progress) as bar:
+    with progress_bar(progress, unit="epochs") as bar:
         task = bar.add_task(f"kernel-{config.variant}", total=config.epochs, completed=state["epoch"])
         while state["epoch"] < config.epochs and state["epoch"] - state["best_epoch"] <= config.patience:
             started = time.perf_counter()
