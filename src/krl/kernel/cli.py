@@ -148,6 +148,82 @@ def run_tune(args: argparse.Namespace) -> int:
     return 0
 
 
+# --- studies -----------------------------------------------------------------------------------------
+
+
+def _ints(text: str, option: str) -> list[int]:
+    try:
+        return [int(part) for part in text.split(",") if part]
+    except ValueError:
+        raise ValueError(f"{option} expects comma-separated integers, got {text!r}") from None
+
+
+def add_study_arguments(parser: argparse.ArgumentParser) -> None:
+    from krl.kernel.studies import STUDIES, THESIS_SEEDS
+
+    parser.add_argument("study", choices=STUDIES, help="variants (Table 4.4), data-size (4.5), stance (4.3)")
+    parser.add_argument("--out", default="docs/results/kernel", help="where the tables go")
+    parser.add_argument("--runs", default="runs/studies", help="where the training runs go (resumable)")
+    parser.add_argument("--data", help="data-size: the base dataset")
+    parser.add_argument("--data-base", help="variants: base dataset (base, ind, dyn1)")
+    parser.add_argument("--data-ext", help="variants: ext dataset")
+    parser.add_argument("--data-dyn2", help="variants: dyn2 dataset (collected with resets)")
+    parser.add_argument(
+        "--data-stance", action="append", metavar="TAU=DIR", help="stance: a dataset per stance duration"
+    )
+    parser.add_argument("--seeds", default=",".join(map(str, THESIS_SEEDS)), help="training seeds")
+    parser.add_argument("--sizes", default="10,25,50,100,200,400", help="data-size: training targets")
+    parser.add_argument("--epochs", type=int, default=30)
+    parser.add_argument("--threads", type=int, help="PyTorch CPU threads")
+    parser.add_argument("--quiet", action="store_true")
+    parser.add_argument("--json", action="store_true")
+
+
+def run_study(args: argparse.Namespace) -> int:
+    import shlex
+
+    from krl.cli import emit
+    from krl.kernel import studies
+    from krl.kernel.train import TrainConfig
+
+    seeds = _ints(args.seeds, "--seeds")
+    base = TrainConfig(epochs=args.epochs, threads=args.threads)
+    if args.study == "variants":
+        data = {
+            k: v for k, v in (("base", args.data_base), ("ext", args.data_ext), ("dyn2", args.data_dyn2)) if v
+        }
+        if not data:
+            raise ValueError("variants needs at least one of --data-base, --data-ext, --data-dyn2")
+        runs, key = studies.plan_variants(data, seeds, base), "variant"
+    elif args.study == "data-size":
+        if not args.data:
+            raise ValueError("data-size needs --data (a base dataset)")
+        runs, key = studies.plan_data_size(args.data, _ints(args.sizes, "--sizes"), seeds, base), "targets"
+    else:
+        stance_data = {}
+        for item in args.data_stance or ():
+            tau, sep, path = item.partition("=")
+            try:
+                stance_data[float(tau)] = path
+            except ValueError:
+                sep = ""
+            if not sep or not path:
+                raise ValueError(f"--data-stance expects TAU=DIR, got {item!r}")
+        if not stance_data:
+            raise ValueError("stance needs --data-stance TAU=DIR (one per stance duration)")
+        runs, key = studies.plan_stance(stance_data, seeds, base), "stance_duration"
+    records = studies.execute(runs, Path(args.runs) / args.study, progress=not args.quiet)
+    rows = studies.thesis_columns(args.study, studies.summarise(records, key))
+    if args.study == "stance":
+        for row in rows:
+            first = next(r for r in records if r["stance_duration"] == row["stance_duration"])
+            row["functional"] = studies.functional(first["kernel"], seeds=(1, 2))
+    command = "krl " + shlex.join(args.argv)
+    path = studies.write_table(args.study, rows, records, Path(args.out), command)
+    emit({"study": args.study, "table": str(path), "rows": rows}, args.json)
+    return 0
+
+
 # --- eval --------------------------------------------------------------------------------------------
 
 
@@ -263,6 +339,9 @@ def register(subparsers) -> None:
     p = kernel.add_parser("tune", help="Optuna search over Table A.2's space (resumable)")
     add_tune_arguments(p)
     p.set_defaults(func=run_tune)
+    p = kernel.add_parser("study", help="the result tables 4.3, 4.4, 4.5 (resumable training runs)")
+    add_study_arguments(p)
+    p.set_defaults(func=run_study)
     p = kernel.add_parser("eval", help="score a kernel on fresh expert data (or --data)")
     add_eval_arguments(p)
     p.set_defaults(func=run_eval)

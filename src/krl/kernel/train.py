@@ -79,7 +79,9 @@ class TrainConfig:
     """Use only this many of the training targets (the data-size study); the validation set does not
     change with it."""
     seed: int = 0
-    """Seeds the split, the initialisation, dropout and the batch order."""
+    """Seeds the initialisation, dropout, the batch order and the training-target subsample."""
+    split_seed: int = 0
+    """Seeds the train/validation split (kept fixed across seeds so studies share one validation set)."""
     threads: int | None = None
     """PyTorch CPU threads (default: PyTorch's choice)."""
 
@@ -124,7 +126,7 @@ def prepare_data(dataset, config: TrainConfig) -> dict[str, np.ndarray]:
     features = features_from_columns(config.variant, columns)
     labels = labels_from_columns(config.variant, columns)
     target = np.asarray(columns["target_index"])
-    validation = split_by_target(target, config.validation_fraction, config.seed)
+    validation = split_by_target(target, config.validation_fraction, config.split_seed)
     train = ~validation
     if config.max_train_targets is not None:
         train_targets = np.unique(target[train])

@@ -1,0 +1,219 @@
+"""The kernel's result tables (thesis Tables 4.3, 4.4 and 4.5), each a set of resumable training runs.
+
+* ``variants`` (Table 4.4): every variant trained with each seed; mean ± std of the best validation L1.
+  base, ind and dyn1 train on the base dataset, ext on the ext dataset, dyn2 on the dyn2 dataset
+  (collected with a reset after each target, ``krl collect --mode dyn2``).
+* ``data-size`` (Table 4.5): kernel-base trained on 10 … 400 of the training targets, one fixed
+  validation set, each size with each seed.
+* ``stance`` (Table 4.3): kernel-base with the thesis's manually tuned settings on datasets collected
+  at stance durations 0.3, 0.25 and 0.2 s; validation L1 and whether the kernel then walks (reaches
+  every one of a few random waypoints without falling, for each of two seeds).
+
+Each run trains in ``RUNS/<study>/<run>`` with :func:`krl.kernel.train.train_kernel`, so an interrupted
+study resumes where it stopped and finished runs are not redone. The tables (Markdown, CSV, JSON, the
+thesis's numbers beside ours and the command that made them) go to ``OUT/<study>.*``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import statistics
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from krl.kernel.model import NetworkConfig
+from krl.kernel.train import TrainConfig, train_kernel
+
+STUDIES: tuple[str, ...] = ("variants", "data-size", "stance")
+THESIS_SEEDS: tuple[int, ...] = (150, 215, 345, 556)
+"""The four seeds used throughout the thesis (Section 4.2.1)."""
+
+THESIS_VARIANTS = {  # Table 4.4: mean, std of the validation loss
+    "base": (6.2e-4, 6.9e-6),
+    "ind": (7.2e-4, 4.9e-6),
+    "ext": (7.1e-4, 1e-5),
+    "dyn1": (3.1e-4, 6.1e-6),
+    "dyn2": (2.5e-4, 5.6e-6),
+}
+THESIS_DATA_SIZE = {10: 1e-3, 25: 9.1e-4, 50: 8.4e-4, 100: 7.7e-4, 200: 6.7e-4, 400: 6.2e-4}  # Table 4.5
+THESIS_STANCE = {0.3: (5.9e-3, False), 0.25: (2e-3, False), 0.2: (1.6e-3, True)}  # Table 4.3
+
+TABLE_4_3_SETTINGS = dict(
+    network=NetworkConfig(hidden=(256, 256, 256), activation="tanh", dropout=0.2, batch_norm=True),
+    learning_rate=0.001,
+    lr_decay=0.8,
+    batch_size=100,
+)
+"""The manually tuned hyper-parameters under Table 4.3."""
+
+
+@dataclass(frozen=True)
+class StudyRun:
+    """One training run of a study."""
+
+    name: str
+    data: str
+    config: TrainConfig
+    row: dict[str, Any]
+    """The table row this run belongs to (e.g. {"variant": "ext"})."""
+
+
+def plan_variants(data: dict[str, str], seeds: Sequence[int], base: TrainConfig) -> list[StudyRun]:
+    """Runs of Table 4.4. ``data`` maps ``base``/``ext``/``dyn2`` to dataset directories; a variant
+    whose dataset is not given is left out."""
+    sources = {"base": "base", "ind": "base", "dyn1": "base", "ext": "ext", "dyn2": "dyn2"}
+    runs = []
+    for variant, source in sources.items():
+        if source not in data:
+            continue
+        for seed in seeds:
+            config = replace(base, variant=variant, seed=seed)
+            runs.append(StudyRun(f"{variant}-seed{seed}", data[source], config, {"variant": variant}))
+    return runs
+
+
+def plan_data_size(
+    data: str, sizes: Sequence[int], seeds: Sequence[int], base: TrainConfig
+) -> list[StudyRun]:
+    """Runs of Table 4.5 (the validation split is ``base.split_seed`` for all of them)."""
+    return [
+        StudyRun(
+            f"targets{size}-seed{seed}",
+            data,
+            replace(base, variant="base", seed=seed, max_train_targets=size),
+            {"targets": size},
+        )
+        for size in sizes
+        for seed in seeds
+    ]
+
+
+def plan_stance(data: dict[float, str], seeds: Sequence[int], base: TrainConfig) -> list[StudyRun]:
+    """Runs of Table 4.3: one dataset per stance duration [s], Table 4.3's hyper-parameters."""
+    return [
+        StudyRun(
+            f"stance{stance:g}-seed{seed}",
+            path,
+            replace(base, variant="base", seed=seed, **TABLE_4_3_SETTINGS),
+            {"stance_duration": stance},
+        )
+        for stance, path in sorted(data.items(), reverse=True)
+        for seed in seeds
+    ]
+
+
+def execute(runs: Sequence[StudyRun], runs_dir: Path, progress: bool = True) -> list[dict[str, Any]]:
+    """Train every run (resuming unfinished ones); return one record per run."""
+    from krl.data.schema import load_dataset
+
+    datasets: dict[str, Any] = {}
+    records = []
+    for run in runs:
+        if run.data not in datasets:
+            datasets[run.data] = load_dataset(run.data)
+        result = train_kernel(
+            datasets[run.data], run.config, runs_dir / run.name, progress=progress, tensorboard=False
+        )
+        records.append(
+            {
+                **run.row,
+                "run": run.name,
+                "seed": run.config.seed,
+                "val_l1": result.val_l1,
+                "epochs_run": result.epochs_run,
+                "train_seconds": result.train_seconds,
+                "kernel": str(result.kernel_path),
+            }
+        )
+    return records
+
+
+def functional(kernel_path: str, seeds: Sequence[int], targets: int = 5) -> bool:
+    """Whether the kernel walks: it reaches all ``targets`` random waypoints without falling, every seed."""
+    import numpy as np
+
+    from krl.kernel.controller import KernelController
+    from krl.kernel.model import load_kernel
+    from krl.runner import Runner, random_targets
+    from krl.sim.model import build_model
+    from krl.sim.robot import A1Sim
+
+    kernel = load_kernel(kernel_path)
+    for seed in seeds:
+        runner = Runner(A1Sim(build_model("flat")), KernelController(kernel))
+        result = runner.walk_to(random_targets(np.random.default_rng(seed), targets))
+        if result.fell or result.targets_reached < targets:
+            return False
+    return True
+
+
+def summarise(records: Sequence[dict[str, Any]], key: str) -> list[dict[str, Any]]:
+    """Mean and standard deviation of ``val_l1`` per value of ``key`` (in first-seen order)."""
+    groups: dict[Any, list[dict[str, Any]]] = {}
+    for record in records:
+        groups.setdefault(record[key], []).append(record)
+    rows = []
+    for value, group in groups.items():
+        losses = [r["val_l1"] for r in group]
+        rows.append(
+            {
+                key: value,
+                "val_l1_mean": statistics.fmean(losses),
+                "val_l1_std": statistics.stdev(losses) if len(losses) > 1 else 0.0,
+                "runs": len(group),
+                "epochs": max(r["epochs_run"] for r in group),
+                "train_seconds_mean": statistics.fmean(r["train_seconds"] for r in group),
+            }
+        )
+    return rows
+
+
+def _write(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f".{path.name}.tmp")
+    temporary.write_text(text)
+    os.replace(temporary, path)
+
+
+def write_table(
+    study: str, rows: list[dict[str, Any]], records: list[dict[str, Any]], out: Path, command: str
+) -> Path:
+    """Write ``OUT/<study>.md``, ``.csv`` and ``.json``; returns the Markdown path."""
+    columns = list(rows[0])
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=columns)
+    writer.writeheader()
+    writer.writerows(rows)
+    _write(out / f"{study}.csv", buffer.getvalue())
+    _write(out / f"{study}.json", json.dumps({"rows": rows, "runs": records, "command": command}, indent=2))
+    header = "| " + " | ".join(columns) + " |\n| " + " | ".join("---" for _ in columns) + " |\n"
+    lines = ["| " + " | ".join(_format(row[c]) for c in columns) + " |" for row in rows]
+    text = f"# Kernel study: {study}\n\nMade by:\n\n    {command}\n\n" + header + "\n".join(lines) + "\n"
+    path = out / f"{study}.md"
+    _write(path, text)
+    return path
+
+
+def _format(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.3g}" if abs(value) < 1e-2 or abs(value) >= 1e3 else f"{value:.3f}"
+    return str(value)
+
+
+def thesis_columns(study: str, rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Add the thesis's figures beside ours."""
+    for row in rows:
+        if study == "variants":
+            mean, std = THESIS_VARIANTS[row["variant"]]
+            row["thesis_mean"], row["thesis_std"] = mean, std
+        elif study == "data-size":
+            row["thesis_mean"] = THESIS_DATA_SIZE.get(row["targets"])
+        elif study == "stance":
+            mean, walks = THESIS_STANCE.get(row["stance_duration"], (None, None))
+            row["thesis_mean"], row["thesis_functional"] = mean, walks
+    return rows
