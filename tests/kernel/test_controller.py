@@ -69,18 +69,6 @@ def test_shipped_kernel_base_walks_to_waypoints():
     assert result.targets_reached == 3 and not result.fell
 
 
-def test_shipped_kernel_ext_follows_its_ride_height():
-    kernel = load_kernel(shipped_model_path("ext"))
-    heights = []
-    for ride in (0.2, 0.27):
-        sim = A1Sim(build_model("flat"))
-        runner = Runner(sim, KernelController(kernel, ride_height=ride))
-        result = runner.hold_command(np.array([0.2, 0.0, 0.0]), 4.0)
-        assert not result.fell
-        heights.append(sim.state.base_pos[2])
-    assert heights[1] - heights[0] > 0.04
-
-
 def test_kernel_eval_on_fresh_expert_data(capsys):
     assert main(["kernel", "eval", "--targets", "1", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
