@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from krl.runner import HOLD_RAMP, HOLD_SETTLE, TARGET_TIME_LIMIT
 from krl.timing import CONTROL_DT
 
 __all__ = [
@@ -97,16 +98,10 @@ QUICK_TARGETS: int = 1
 TARGET_DISTANCE: tuple[float, float] = (2.5, 3.5)
 """Waypoint spacing [m] (the thesis's data collection: at least 2.5 m)."""
 QUICK_TARGET_DISTANCE: tuple[float, float] = (1.8, 2.0)
-TARGET_TIME_LIMIT: float = 40.0
-"""Time allowed per waypoint [s]."""
 
 DEFAULT_DURATION: float = 8.0
 """Length of each fixed-command run of the velocity sweep [s] (1 s ramp + 1 s settling + 6 s measured)."""
 QUICK_DURATION: float = 3.0
-HOLD_RAMP: float = 1.0
-"""Ramp of each fixed command from zero [s] (the runner's default)."""
-HOLD_SETTLE: float = 1.0
-"""Settling time after the ramp before velocities count [s] (``krl.runner.HOLD_SETTLE``)."""
 
 SWEEP_POINTS: int = 11
 """Points per velocity component (vx, wz: steps of 0.1; vy: 7 points, steps of 0.1)."""
