@@ -994,18 +994,3 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(_text_summary(summary))
     return 0
-
-
-def main(argv: Sequence[str] | None = None) -> int:  # pragma: no cover - thin wrapper
-    """``python -m krl.analysis.expert_plots WHICH --out DIR ...`` (same as ``krl expert plot``)."""
-    parser = argparse.ArgumentParser(prog="python -m krl.analysis.expert_plots")
-    add_arguments(parser)
-    try:
-        return run(parser.parse_args(argv))
-    except ValueError as error:
-        print(f"krl: error: {error}", file=sys.stderr)
-        return 2
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())

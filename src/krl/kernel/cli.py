@@ -329,27 +329,19 @@ def run_run(args: argparse.Namespace) -> int:
 
 
 def register(subparsers) -> None:
-    """Add ``krl kernel train|tune|study|eval|run`` to the main parser's subcommands."""
-    kernel = subparsers.add_parser(
-        "kernel", help="the kernel: train, tune, study, evaluate, run"
-    ).add_subparsers(dest="kernel_command", required=True, metavar="KERNEL_COMMAND")
+    """Add ``krl kernel train|tune|study|eval|run|figures`` to the main parser's subcommands."""
+    from krl.kernel import figures
+
+    kernel = subparsers.add_parser("kernel", help="the kernel: train, tune, study, evaluate, run, figures")
+    commands = kernel.add_subparsers(dest="kernel_command", required=True, metavar="KERNEL_COMMAND")
     for name, help_text, add, run in (
         ("train", "train a kernel variant on an expert dataset", add_train_arguments, run_train),
         ("tune", "Optuna search over Table A.2's space (resumable)", add_tune_arguments, run_tune),
-        (
-            "study",
-            "the result tables 4.3, 4.4, 4.5 (resumable training runs)",
-            add_study_arguments,
-            run_study,
-        ),
+        ("study", "the result tables 4.3-4.5 (resumable training runs)", add_study_arguments, run_study),
         ("eval", "score a kernel on fresh expert data (or --data)", add_eval_arguments, run_eval),
-        (
-            "run",
-            "walk the robot with a kernel to waypoints or at a fixed command",
-            add_run_arguments,
-            run_run,
-        ),
+        ("run", "walk with a kernel to waypoints or at a fixed command", add_run_arguments, run_run),
+        ("figures", "the kernel's figures (Figs. 4.9-4.13, 4.15)", figures.add_arguments, figures.run),
     ):
-        parser = kernel.add_parser(name, help=help_text)
+        parser = commands.add_parser(name, help=help_text)
         add(parser)
         parser.set_defaults(func=run)
