@@ -8,8 +8,9 @@ through inverse kinematics and the Table 4.2 PD. ``docs/expert.md`` lists every 
 from __future__ import annotations
 
 import logging
+import time
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -106,8 +107,6 @@ class MPCExpert:
 
     def set_heights(self, step_height: float | None = None, ride_height: float | None = None) -> None:
         """Change step and/or ride height between targets (validated like the constructor)."""
-        from dataclasses import replace
-
         self.params = replace(
             self.params,
             step_height=self.params.step_height if step_height is None else step_height,
@@ -124,8 +123,6 @@ class MPCExpert:
         self.last = None
 
     def act(self, state: RobotState, command: np.ndarray) -> JointCommand:
-        import time
-
         p = self.params
         self.gait.step()
         gait = self.gait.params
