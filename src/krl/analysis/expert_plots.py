@@ -970,6 +970,20 @@ def _text_summary(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def print_json_summary(summary: dict[str, Any], digest=None) -> None:
+    """Print a figure run's summary as JSON: each figure's paths without its full table, plus
+    ``digest(table)`` (a dict) where given. Shared by ``krl expert plot`` and ``krl kernel figures``."""
+    printable = {
+        **summary,
+        "figures": {
+            name: {key: value for key, value in figure.items() if key != "table"}
+            | (digest(figure["table"]) if digest else {})
+            for name, figure in summary["figures"].items()
+        },
+    }
+    print(json.dumps(printable, indent=2, ensure_ascii=False))
+
+
 def run(args: argparse.Namespace) -> int:
     """``krl expert plot``: make the figure(s); print a summary (text or ``--json``)."""
     summary = make_figures(
@@ -982,15 +996,7 @@ def run(args: argparse.Namespace) -> int:
         quick=args.quick,
     )
     if args.json:
-        printable = {
-            **summary,
-            "figures": {
-                name: {key: value for key, value in figure.items() if key != "table"}
-                | {"summary": figure["table"].get("fits") or figure["table"]["conditions"]}
-                for name, figure in summary["figures"].items()
-            },
-        }
-        print(json.dumps(printable, indent=2, ensure_ascii=False))
+        print_json_summary(summary, lambda table: {"summary": table.get("fits") or table["conditions"]})
     else:
         print(_text_summary(summary))
     return 0

@@ -44,6 +44,7 @@ from krl.analysis.expert_plots import (
     _json_value,
     _write_atomic,
     fit_line,
+    print_json_summary,
 )
 from krl.robots.a1.constants import FOOT_RADIUS, LEG_NAMES, NUM_LEGS
 from krl.runner import HOLD_RAMP, HOLD_SETTLE
@@ -1502,14 +1503,7 @@ def run(args: argparse.Namespace) -> int:
         workers=args.workers,
     )
     if args.json:
-        printable = {
-            **summary,
-            "figures": {
-                name: {k: v for k, v in fig.items() if k != "table"}
-                for name, fig in summary["figures"].items()
-            },
-        }
-        print(json.dumps(printable, indent=2, ensure_ascii=False))
+        print_json_summary(summary)
     else:
         for name, figure in summary["figures"].items():
             print(f"{name} ({figure['table']['thesis_figure']}): {figure['png']}")
