@@ -776,6 +776,22 @@ def _plot_com(which: str, conditions: list, results: dict, settings: Settings):
     return fig
 
 
+def draw_fit_and_axes(ax, fit: dict[str, float], lim: float, name: str, unit: str, label: str) -> None:
+    """On a realised-vs-commanded panel: the fitted line over [-lim, lim] (if finite) and the axes'
+    labels, limits and title. Shared by the expert's and the kernel's velocity figures."""
+    if math.isfinite(fit["slope"]):
+        ax.plot(
+            [-lim, lim],
+            [fit["offset"] - fit["slope"] * lim, fit["offset"] + fit["slope"] * lim],
+            color="C1",
+            lw=0.8,
+            label=label,
+        )
+    ax.set(
+        xlabel=f"commanded {name} [{unit}]", ylabel=f"realised {name} [{unit}]", xlim=(-lim, lim), title=name
+    )
+
+
 def _plot_velocity(conditions: list, results: dict, settings: Settings, fits: dict):
     from matplotlib.figure import Figure
 
@@ -808,21 +824,8 @@ def _plot_velocity(conditions: list, results: dict, settings: Settings, fits: di
         if fell.any():
             ax.plot(x[fell], mean[fell], "rx", ms=8, label="fell")
         fit = fits[axis]
-        if math.isfinite(fit["slope"]):
-            ax.plot(
-                [-lim, lim],
-                [fit["offset"] - fit["slope"] * lim, fit["offset"] + fit["slope"] * lim],
-                color="C1",
-                lw=0.8,
-                label=f"fit: slope {fit['slope']:.3f}, offset {fit['offset']:+.3f}",
-            )
-        name, unit = names[axis]
-        ax.set(
-            xlabel=f"commanded {name} [{unit}]",
-            ylabel=f"realised {name} [{unit}]",
-            xlim=(-lim, lim),
-            title=name,
-        )
+        label = f"fit: slope {fit['slope']:.3f}, offset {fit['offset']:+.3f}"
+        draw_fit_and_axes(ax, fit, lim, *names[axis], label)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=6, loc="upper left")
         ax.tick_params(labelsize=7)

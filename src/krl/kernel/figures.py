@@ -43,6 +43,7 @@ from krl.analysis.expert_plots import (
     _figure_bytes,
     _json_value,
     _write_atomic,
+    draw_fit_and_axes,
     fit_line,
     print_json_summary,
 )
@@ -1313,21 +1314,8 @@ def _velocity(kernel_path: Path, expert_json, run: _Run):
             y = np.where(np.isfinite(mean[~ok]), mean[~ok], 0.0)
             ax.plot(x[~ok], y, "rx", ms=9, mew=2, label="kernel-base fell")
         fit = fits[axis]
-        if math.isfinite(fit["slope"]):
-            ax.plot(
-                [-lim, lim],
-                [fit["offset"] - fit["slope"] * lim, fit["offset"] + fit["slope"] * lim],
-                color="C1",
-                lw=0.8,
-                label=f"kernel fit: slope {fit['slope']:.2f}, offset {fit['offset']:+.3f}",
-            )
-        name, unit = names[axis]
-        ax.set(
-            xlabel=f"commanded {name} [{unit}]",
-            ylabel=f"realised {name} [{unit}]",
-            xlim=(-lim, lim),
-            title=name,
-        )
+        label = f"kernel fit: slope {fit['slope']:.2f}, offset {fit['offset']:+.3f}"
+        draw_fit_and_axes(ax, fit, lim, *names[axis], label)
         _style(ax)
         ax.legend(fontsize=6, loc="upper left")
     fig.suptitle(
