@@ -300,6 +300,15 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("collect", help="collect expert data for the kernel (Section 4.2.6.2)")
     collect.add_arguments(p)
     p.set_defaults(func=collect.run)
+
+    from krl.eval import cli as eval_cli
+
+    p = sub.add_parser("evaluate", help="score controllers on the courses or the push sweep (resumable)")
+    eval_cli.add_evaluate_arguments(p)
+    p.set_defaults(func=eval_cli.run_evaluate)
+    p = sub.add_parser("report", help="Tables 5.1-5.5 and the evaluation plots from krl evaluate's results")
+    eval_cli.add_report_arguments(p)
+    p.set_defaults(func=eval_cli.run_report)
     return parser
 
 
@@ -309,12 +318,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     args.argv = argv
+    from krl.eval.evaluate import EvaluationError
     from krl.sim.render import RenderError
     from krl.sim.robot import SimulationUnstableError
 
     try:
         return args.func(args)
-    except (CliError, ValueError, RenderError, SimulationUnstableError, OSError) as error:
+    except (CliError, ValueError, RenderError, SimulationUnstableError, EvaluationError, OSError) as error:
         print(f"krl: error: {error}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

@@ -126,13 +126,21 @@ class Runner:
         """The command generator; its command carries over between waypoints (and between calls with
         ``reset=False``), as Algorithm 2's ramp intends."""
 
-    def _start(self, reset: bool) -> RobotState:
-        if not reset:
-            return self.sim.state
-        state = self.sim.reset()
+    def start(self, start_pose: tuple[float, float, float] | None = None) -> RobotState:
+        """Reset the simulator (to ``start_pose`` (x, y, yaw) [m, m, rad], default the terrain's spawn
+        point), the controller and the command generator; returns the initial state. Follow with a
+        ``reset=False`` run to act between the reset and the first step (e.g. schedule a push)."""
+        if start_pose is None:
+            state = self.sim.reset()
+        else:
+            x, y, yaw = start_pose
+            state = self.sim.reset(xy=(x, y), yaw=yaw)
         self.controller.reset(state)
         self.generator.reset()
         return state
+
+    def _start(self, reset: bool, start_pose: tuple[float, float, float] | None = None) -> RobotState:
+        return self.start(start_pose) if reset else self.sim.state
 
     def _step(
         self,
@@ -156,25 +164,39 @@ class Runner:
         targets: np.ndarray,
         target_time_limit: float = TARGET_TIME_LIMIT,
         reset: bool = True,
+        start_pose: tuple[float, float, float] | None = None,
+        time_limit: float | None = None,
     ) -> RunResult:
         """Walk to each waypoint in turn (world (x, y) [m], shape (N, 2)); stop on a fall or time-out.
 
-        With ``reset=False`` the run continues from the simulator's and controller's current state (the
-        gait clock keeps running), so a long walk can be split into calls, one per waypoint.
+        Args:
+            targets: the waypoints. Shape: (N, 2).
+            target_time_limit: time allowed for each waypoint [s].
+            reset: start afresh; with ``reset=False`` the run continues from the simulator's and
+                controller's current state (the gait clock keeps running), so a long walk can be split
+                into calls, one per waypoint.
+            start_pose: (x, y, yaw) [m, m, rad] to reset to; default the terrain's spawn point.
+            time_limit: time allowed for the whole call [s] (a course's limit); None: no overall limit.
         """
         targets = np.asarray(targets, dtype=float).reshape(-1, 2)
-        state = self._start(reset)
+        state = self._start(reset, start_pose)
         started_at = self.sim.time
         generator = self.generator
         result = RunResult()
         wall = time.perf_counter()
         limit_steps = round(target_time_limit / CONTROL_DT)
+        steps_left = round(time_limit / CONTROL_DT) if time_limit is not None else None
         for index, target in enumerate(targets):
             generator.set_target(target)
             for _ in range(limit_steps):
                 command = generator.step(state.base_pos[:2], state.rpy[2])
                 if generator.reached:
                     break
+                if steps_left is not None:
+                    if steps_left == 0:
+                        result.timed_out = True
+                        break
+                    steps_left -= 1
                 state = self._step(state, command, index, result)
                 if state.fallen:
                     result.fell = True

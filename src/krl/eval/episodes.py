@@ -1,0 +1,227 @@
+"""Scoring one run: a course from one start pose, or one attempt of the push sweep.
+
+:class:`EpisodeScorer` watches a :class:`krl.runner.Runner` step by step and adds up the reward terms
+(:mod:`krl.reward`), the waypoints reached and the distance walked; :func:`score_walk` runs a walk under
+it and returns the run's metrics as a JSON-ready dict (keys in :data:`RUN_METRICS`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from krl.control.mpc import MPCError
+from krl.reward import EVALUATION_REWARD, RewardParams, reward_terms
+from krl.runner import Runner, StepRecord
+from krl.sim.robot import SimulationUnstableError
+
+RUN_METRICS: tuple[str, ...] = (
+    "targets",
+    "targets_reached",
+    "success",
+    "fell",
+    "timed_out",
+    "error",
+    "steps",
+    "reward_total",
+    "reward_per_step",
+    "reward_terms",
+    "time_to_finish",
+    "distance_walked",
+    "sim_seconds",
+    "wall_seconds",
+)
+"""Keys of a run's metrics (:meth:`EpisodeScorer.metrics`)."""
+
+
+class EpisodeScorer:
+    """Called after every control step (``Runner(on_step=scorer)``); accumulates one run's metrics.
+
+    Args:
+        targets: the run's waypoints, world (x, y) [m]. Shape: (N, 2).
+        d_min: the waypoint threshold [m] (the command generator's).
+        reward: the reward function.
+    """
+
+    def __init__(self, targets: np.ndarray, d_min: float, reward: RewardParams = EVALUATION_REWARD) -> None:
+        self.targets = np.asarray(targets, dtype=float).reshape(-1, 2)
+        self.d_min = float(d_min)
+        self.reward = reward
+        self.steps = 0
+        self.targets_reached = 0
+        self.fell = False
+        self.term_sums: dict[str, float] = {}
+        self.distance_walked = 0.0
+        """Planar path length of the base [m]."""
+
+    def __call__(self, record: StepRecord) -> None:
+        after = record.after
+        target = self.targets[record.target_index]
+        distance = math.hypot(target[0] - after.base_pos[0], target[1] - after.base_pos[1])
+        reached = distance < self.d_min
+        terms = reward_terms(self.reward, record.command, after, distance, reached, after.fallen)
+        for name, value in terms.items():
+            self.term_sums[name] = self.term_sums.get(name, 0.0) + value
+        self.steps += 1
+        self.targets_reached += reached
+        self.fell = self.fell or after.fallen
+        step = after.base_pos[:2] - record.before.base_pos[:2]
+        self.distance_walked += math.hypot(step[0], step[1])
+
+    def metrics(
+        self, sim_seconds: float, wall_seconds: float, timed_out: bool, error: str | None = None
+    ) -> dict[str, Any]:
+        """The run's metrics (reward per step is the total over the steps taken, 0 for no step).
+
+        ``error`` is the one-line reason a run ended early without a fall (the simulation diverged, the
+        MPC gave up); such a run is no success, and the aggregates count it as a fall.
+        """
+        total = sum(self.term_sums.values())
+        count = len(self.targets)
+        success = self.targets_reached == count and not self.fell and error is None
+        return {
+            "targets": count,
+            "targets_reached": self.targets_reached,
+            "success": success,
+            "fell": self.fell,
+            "timed_out": timed_out,
+            "error": error,
+            "steps": self.steps,
+            "reward_total": total,
+            "reward_per_step": total / self.steps if self.steps else 0.0,
+            "reward_terms": dict(self.term_sums),
+            "time_to_finish": sim_seconds if success else None,
+            "distance_walked": self.distance_walked,
+            "sim_seconds": sim_seconds,
+            "wall_seconds": wall_seconds,
+        }
+
+
+def score_walk(
+    sim,
+    controller,
+    targets: np.ndarray,
+    start_pose: tuple[float, float, float],
+    time_limit: float,
+    d_min: float,
+    reward: RewardParams = EVALUATION_REWARD,
+    push=None,
+    video: str | Path | None = None,
+) -> dict[str, Any]:
+    """Walk ``controller`` from ``start_pose`` through ``targets`` within ``time_limit`` [s] and score it.
+
+    ``push`` (a :class:`krl.sim.pushes.Push`) is scheduled after the reset; ``video`` records an MP4.
+    A diverging simulation or an MPC that gives up ends the run with an ``error`` (counted as a fall by the
+    aggregates) instead of stopping the evaluation.
+    """
+    from dataclasses import replace
+
+    from krl.control.commands import CommandParams
+
+    scorer = EpisodeScorer(targets, d_min, reward)
+    recorder = None
+    if video is not None:
+        from krl.sim.video import VideoRecorder
+
+        recorder = VideoRecorder(sim, video)
+
+    def on_step(record: StepRecord) -> None:
+        scorer(record)
+        if recorder is not None:
+            recorder.capture()
+
+    runner = Runner(sim, controller, replace(CommandParams(), d_min=d_min), on_step=on_step)
+    wall = time.perf_counter()
+    timed_out, error = False, None
+    try:
+        runner.start(start_pose)
+        if push is not None:
+            sim.push(push)
+        result = runner.walk_to(targets, target_time_limit=time_limit, reset=False, time_limit=time_limit)
+        timed_out = result.timed_out
+    except (SimulationUnstableError, MPCError) as failure:
+        error = f"{type(failure).__name__}: {failure}"
+    finally:
+        if recorder is not None:
+            recorder.close()
+    return scorer.metrics(sim.time, time.perf_counter() - wall, timed_out, error)
+
+
+# --- the push sweep (thesis Section 5.3) ---------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PushSweep:
+    """The robustness sweep: walk to one waypoint on flat ground while one push hits the trunk.
+
+    Attempt ``a`` draws the push's start time, direction and point from ``default_rng([seed, a])``
+    whatever the magnitude, so every magnitude (and every controller) meets the same pushes and the
+    magnitude is the only thing that changes along the sweep.
+    """
+
+    magnitudes: tuple[float, ...] = tuple(float(m) for m in range(250, 901, 50))
+    """Push forces [N] (thesis Table 5.5: 250-900 N in steps of 50)."""
+    attempts: int = 10
+    """Attempts per magnitude."""
+    seed: int = 0
+    """Seed of the pushes' random draws."""
+    target: tuple[float, float] = (3.0, 0.0)
+    """The waypoint, world (x, y) [m]; the robot starts at the origin facing +x."""
+    window: tuple[float, float] = (2.0, 5.0)
+    """The push starts at a time ~ U(window) [s], while the robot walks."""
+    time_limit: float = 40.0
+    """Time allowed to reach the waypoint [s]."""
+    d_min: float = 0.5
+    """Waypoint threshold [m]."""
+
+    def __post_init__(self) -> None:
+        if not self.magnitudes or any(not (math.isfinite(m) and m >= 0) for m in self.magnitudes):
+            raise ValueError(f"push magnitudes must be finite numbers >= 0 N, got {self.magnitudes}")
+        if self.attempts < 1:
+            raise ValueError(f"attempts must be >= 1, got {self.attempts}")
+        low, high = self.window
+        if not 0 <= low <= high < self.time_limit:
+            raise ValueError(f"push window must satisfy 0 <= low <= high < time_limit, got {self.window}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "magnitudes": list(self.magnitudes),
+            "attempts": self.attempts,
+            "seed": self.seed,
+            "target": list(self.target),
+            "window": list(self.window),
+            "time_limit": self.time_limit,
+            "d_min": self.d_min,
+        }
+
+    def push(self, magnitude: float, attempt: int):
+        """The push of one attempt (:class:`krl.sim.pushes.Push`)."""
+        from krl.sim.pushes import scripted_push
+
+        return scripted_push(magnitude, np.random.default_rng([self.seed, attempt]), self.window)
+
+
+def score_push_attempt(
+    sweep: PushSweep, controller, magnitude: float, attempt: int, video=None
+) -> dict[str, Any]:
+    """One attempt of the sweep: the run's metrics plus the push (magnitude [N], impulse [N·s], Δv [m/s])."""
+    from krl.sim.model import build_model
+    from krl.sim.robot import A1Sim
+
+    push = sweep.push(magnitude, attempt)
+    metrics = score_walk(
+        A1Sim(build_model("flat")),
+        controller,
+        np.array([sweep.target]),
+        (0.0, 0.0, 0.0),
+        sweep.time_limit,
+        sweep.d_min,
+        push=push,
+        video=video,
+    )
+    return {**metrics, "push": push.summary()}

@@ -1,0 +1,268 @@
+"""``krl evaluate``: run a controller on courses or the push sweep, one process per core, resumably.
+
+Each run (a course from one start pose, with one seed where the controller depends on it; or one
+attempt at one push magnitude) is a :class:`Task`. Workers run tasks and return their records; the main
+process writes each record atomically to ``OUT/<controller>/<course>/<run>.json`` (or
+``OUT/<controller>/push/m<N>-a<k>.json``) as it arrives. A record stores what made it (controller,
+course or sweep fingerprint, seed), so a re-run skips finished runs and refuses to mix results of a
+different course file or kernel into the same directory. Every run is seeded by its own key, so results
+do not depend on the number of workers or on the order in which runs finish.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import statistics
+from collections.abc import Callable, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from krl.eval.controllers import ControllerSpec
+from krl.eval.courses import Course
+from krl.eval.episodes import PushSweep, score_push_attempt, score_walk
+
+RESULT_FORMAT = 1
+"""Version of the per-run result files."""
+
+PUSH_DIR = "push"
+"""Subdirectory of a controller's results that holds the push sweep."""
+
+
+class EvaluationError(RuntimeError):
+    """Stored results that cannot be used (corrupt, or made by something else); one line."""
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run. Plain data: it travels to a worker process."""
+
+    key: str
+    """Result path under the controller's directory, without ``.json`` (``stairs/start0``)."""
+    controller: ControllerSpec
+    course: Course | None = None
+    start: int = 0
+    seed: int | None = None
+    sweep: PushSweep | None = None
+    magnitude: float = 0.0
+    attempt: int = 0
+    video: str | None = None
+    """Write an MP4 of the run here."""
+
+    def identity(self) -> dict[str, Any]:
+        """What the run's result depends on; stored with it and compared on resumption."""
+        identity: dict[str, Any] = {"format": RESULT_FORMAT, "controller": self.controller.describe()}
+        if self.sweep is not None:
+            identity.update(sweep=self.sweep.to_dict(), magnitude=self.magnitude, attempt=self.attempt)
+        else:
+            assert self.course is not None
+            identity.update(
+                course=self.course.name,
+                course_fingerprint=self.course.fingerprint,
+                start=self.start,
+                seed=self.seed,
+            )
+        return identity
+
+
+def course_tasks(
+    spec: ControllerSpec,
+    courses: Sequence[Course],
+    seeds: Sequence[int],
+    video_dir: Path | None = None,
+    video_all: bool = False,
+) -> list[Task]:
+    """Every (course, start[, seed]) run. Seeds count only for seed-dependent controllers; videos are
+    made of each course's first run, or of every run with ``video_all``."""
+    run_seeds: Sequence[int | None] = seeds if spec.seeded else [None]
+    tasks = []
+    for course in courses:
+        first = True
+        for start in range(len(course.starts)):
+            for seed in run_seeds:
+                name = f"start{start}" + ("" if seed is None else f"-seed{seed}")
+                video = None
+                if video_dir is not None and (first or video_all):
+                    video = str(video_dir / spec.label / f"{course.name}-{name}.mp4")
+                tasks.append(Task(f"{course.name}/{name}", spec, course, start, seed, video=video))
+                first = False
+    return tasks
+
+
+def push_tasks(spec: ControllerSpec, sweep: PushSweep, video_dir: Path | None = None) -> list[Task]:
+    """Every (magnitude, attempt) of the sweep; a video of attempt 0 at each magnitude if asked."""
+    tasks = []
+    for magnitude in sweep.magnitudes:
+        for attempt in range(sweep.attempts):
+            name = f"m{magnitude:g}-a{attempt}"
+            video = None
+            if video_dir is not None and attempt == 0:
+                video = str(video_dir / spec.label / f"push-{name}.mp4")
+            tasks.append(
+                Task(
+                    f"{PUSH_DIR}/{name}", spec, sweep=sweep, magnitude=magnitude, attempt=attempt, video=video
+                )
+            )
+    return tasks
+
+
+def run_task(task: Task) -> dict[str, Any]:
+    """Run one task (in a worker); returns its record (identity + metrics)."""
+    from krl.sim.robot import A1Sim
+
+    controller = task.controller.build(task.seed)
+    if task.sweep is not None:
+        metrics = score_push_attempt(task.sweep, controller, task.magnitude, task.attempt, video=task.video)
+    else:
+        course = task.course
+        assert course is not None
+        metrics = score_walk(
+            A1Sim(course.build()),
+            controller,
+            np.array(course.waypoints),
+            course.starts[task.start],
+            course.time_limit,
+            course.d_min,
+            video=task.video,
+        )
+    return {**task.identity(), "run": task.key, "metrics": metrics}
+
+
+def result_path(out: Path, task: Task) -> Path:
+    return out / task.controller.label / f"{task.key}.json"
+
+
+def load_record(path: Path, task: Task | None = None) -> dict[str, Any]:
+    """Read one stored record; with ``task``, check it was made by that task."""
+    try:
+        record = json.loads(path.read_text())
+        record["metrics"]["success"]
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise EvaluationError(f"{path}: corrupt result file ({error}); delete it to redo that run") from None
+    if task is not None:
+        stored = {key: record.get(key) for key in task.identity()}
+        if stored != task.identity():
+            raise EvaluationError(
+                f"{path} was made by a different controller, course or sweep than this run; "
+                "use another --out or delete the old results"
+            )
+    return record
+
+
+def _write_atomic(path: Path, record: dict[str, Any]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f".{path.name}.tmp")
+    temporary.write_text(json.dumps(record, indent=1))
+    os.replace(temporary, path)
+
+
+def execute(
+    tasks: Sequence[Task],
+    out: Path,
+    workers: int = 1,
+    on_done: Callable[[Task, dict[str, Any], bool], None] | None = None,
+) -> list[dict[str, Any]]:
+    """Run the tasks whose results are not stored yet; return every task's record, in task order.
+
+    ``on_done(task, record, ran)`` is called for each task as its record becomes available (``ran``:
+    False for a stored result). Interrupting loses only the runs in flight.
+    """
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    records: dict[str, dict[str, Any]] = {}
+    pending = []
+    for task in tasks:
+        path = result_path(out, task)
+        if path.exists() and not (task.video and not Path(task.video).exists()):
+            records[task.key] = load_record(path, task)
+            if on_done is not None:
+                on_done(task, records[task.key], False)
+        else:
+            pending.append(task)
+
+    def finish(task: Task, record: dict[str, Any]) -> None:
+        _write_atomic(result_path(out, task), record)
+        records[task.key] = record
+        if on_done is not None:
+            on_done(task, record, True)
+
+    if workers == 1 or len(pending) <= 1:
+        for task in pending:
+            finish(task, run_task(task))
+    else:
+        with ProcessPoolExecutor(min(workers, len(pending)), mp_context=get_context("spawn")) as pool:
+            futures = {pool.submit(run_task, task): task for task in pending}
+            try:
+                while futures:
+                    done, _ = wait(futures, return_when=FIRST_COMPLETED)
+                    for future in done:
+                        finish(futures.pop(future), future.result())
+            except BaseException:
+                for future in futures:
+                    future.cancel()
+                raise
+    return [records[task.key] for task in tasks]
+
+
+# --- aggregates --------------------------------------------------------------------------------------
+
+
+def _mean_std(values: Sequence[float]) -> tuple[float, float]:
+    """Mean and sample standard deviation (n - 1, as the thesis's tables); std 0 for a single value."""
+    mean = statistics.fmean(values)
+    return mean, (statistics.stdev(values) if len(values) > 1 else 0.0)
+
+
+def summarise_course(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Mean ± std over a course's runs: reward per step, waypoints reached; success and fall rates.
+
+    A run that ended with an error (diverging simulation, MPC failure) counts as a fall.
+    """
+    metrics = [r["metrics"] for r in records]
+    if not metrics:
+        raise ValueError("no runs to summarise")
+    reward = _mean_std([m["reward_per_step"] for m in metrics])
+    targets = _mean_std([m["targets_reached"] for m in metrics])
+    distance = _mean_std([m["distance_walked"] for m in metrics])
+    finish_times = [m["time_to_finish"] for m in metrics if m["time_to_finish"] is not None]
+    return {
+        "runs": len(metrics),
+        "targets": metrics[0]["targets"],
+        "reward_per_step_mean": reward[0],
+        "reward_per_step_std": reward[1],
+        "targets_reached_mean": targets[0],
+        "targets_reached_std": targets[1],
+        "success_rate": sum(m["success"] for m in metrics) / len(metrics),
+        "fall_rate": sum(m["fell"] or m["error"] is not None for m in metrics) / len(metrics),
+        "error_runs": sum(m["error"] is not None for m in metrics),
+        "time_to_finish_mean": statistics.fmean(finish_times) if finish_times else None,
+        "distance_walked_mean": distance[0],
+        "distance_walked_std": distance[1],
+    }
+
+
+def summarise_push(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per magnitude: success and fall rates, mean impulse [N·s] and Δv [m/s] of the pushes."""
+    by_magnitude: dict[float, list[dict[str, Any]]] = {}
+    for record in records:
+        by_magnitude.setdefault(float(record["magnitude"]), []).append(record)
+    rows = []
+    for magnitude in sorted(by_magnitude):
+        group = by_magnitude[magnitude]
+        rows.append(
+            {
+                "magnitude": magnitude,
+                "attempts": len(group),
+                "success_rate": sum(r["metrics"]["success"] for r in group) / len(group),
+                "fall_rate": sum(r["metrics"]["fell"] or r["metrics"]["error"] is not None for r in group)
+                / len(group),
+                "impulse": statistics.fmean(r["metrics"]["push"]["impulse"] for r in group),
+                "delta_v": statistics.fmean(r["metrics"]["push"]["delta_v"] for r in group),
+            }
+        )
+    return rows

@@ -1,0 +1,334 @@
+"""``krl report``: the thesis's Tables 5.1-5.5 and the evaluation plots from stored ``krl evaluate`` results.
+
+Reads ``RESULTS/<controller>/<course>/*.json`` and ``RESULTS/<controller>/push/*.json`` and writes, into
+``OUT``: ``evaluation.md`` (every table, the thesis's numbers beside ours, the commands that made the
+results), one CSV per table, ``courses.png`` (success and fall rate per course and controller) and
+``push.png`` (success rate against push magnitude).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from krl.eval.courses import THESIS_COURSES
+from krl.eval.evaluate import PUSH_DIR, load_record, summarise_course, summarise_push
+
+THESIS_NAMES = {
+    "expert-stance0.3": "MPC (τ_stance=0.3)",
+    "expert-stance0.2": "MPC (τ_stance=0.2)",
+    "kernel-base": "Kernel",
+    "agent-base": "Agent-base",
+    "agent-rp": "Agent-rp",
+}
+"""Our controller labels -> the thesis's row names."""
+
+TABLE_NUMBERS = {"tabletop": "5.1", "seesaw": "5.2", "stairs": "5.3", "sinusoid": "5.4"}
+
+# Tables 5.1-5.4: reward/step (mean, std), targets (mean, std), success rate, fall rate
+THESIS_COURSES_RESULTS: dict[str, dict[str, tuple[float, float, float, float, float, float]]] = {
+    "tabletop": {
+        "MPC (τ_stance=0.3)": (0.013, 0.072, 0.25, 0.5, 0.0, 1.0),
+        "MPC (τ_stance=0.2)": (0.016, 0.11, 2.5, 2.89, 0.5, 0.5),
+        "Kernel": (0.065, 0.0085, 2.25, 1.5, 0.0, 1.0),
+        "Agent-base": (0.091, 0.0076, 4.5, 1.1, 0.8125, 0.1875),
+        "Agent-rp": (0.097, 0.001, 5.0, 0.0, 1.0, 0.0),
+    },
+    "seesaw": {
+        "MPC (τ_stance=0.3)": (0.041, 0.0722, 0.0, 0.0, 0.0, 1.0),
+        "MPC (τ_stance=0.2)": (0.065, 0.018, 0.0, 0.0, 0.0, 1.0),
+        "Kernel": (0.043, 0.00245, 0.0, 0.0, 0.0, 1.0),
+        "Agent-base": (0.087, 0.0024, 5.0, 0.0, 1.0, 0.0),
+        "Agent-rp": (0.091, 0.0006, 5.0, 0.0, 1.0, 0.0),
+    },
+    "stairs": {
+        "MPC (τ_stance=0.3)": (0.067, 0.00098, 0.0, 0.0, 0.0, 1.0),
+        "MPC (τ_stance=0.2)": (0.073, 0.0022, 0.0, 0.0, 0.0, 1.0),
+        "Kernel": (0.047, 0.0019, 0.0, 0.0, 0.0, 0.0),
+        "Agent-base": (0.078, 0.0046, 2.25, 1.8, 0.25, 0.75),
+        "Agent-rp": (0.089, 0.0024, 4.75, 1.0, 0.9375, 0.0625),
+    },
+    "sinusoid": {
+        "MPC (τ_stance=0.3)": (0.07, 0.0078, 0.5, 1.0, 0.0, 1.0),
+        "MPC (τ_stance=0.2)": (0.082, 0.0057, 3.0, 1.83, 0.25, 0.75),
+        "Kernel": (0.042, 0.0021, 0.0, 0.0, 0.0, 0.0),
+        "Agent-base": (0.081, 0.006, 3.87, 1.4, 0.5, 0.5),
+        "Agent-rp": (0.089, 0.0026, 4.75, 1.0, 0.9375, 0.0625),
+    },
+}
+
+THESIS_PUSH: dict[str, tuple[float, ...]] = {  # Table 5.5, success rate at 250, 300, ..., 900 N
+    "MPC (τ_stance=0.2)": (1, 0.8, 0.9, 0.7, 0.5, 0.3, 0.4, 0.2, 0.4, 0.1, 0.2, 0, 0, 0),
+    "Kernel": (1, 1, 1, 0.8, 0.5, 0.3, 0.3, 0, 0, 0, 0, 0, 0, 0),
+    "Agent-rp": (1, 1, 1, 1, 0.9, 0.8, 0.9, 0.8, 0.7, 0.4, 0.8, 0.6, 0.3, 0.2),
+}
+THESIS_PUSH_MAGNITUDES = tuple(float(m) for m in range(250, 901, 50))
+
+
+def collect(
+    results: Path, controllers: Sequence[str] | None = None
+) -> dict[str, dict[str, list[dict[str, Any]]]]:
+    """``{controller: {course or "push": [records]}}`` from a results directory."""
+    if not results.is_dir():
+        raise FileNotFoundError(f"no results directory {str(results)!r} (run `krl evaluate` first)")
+    labels = controllers or sorted(p.name for p in results.iterdir() if p.is_dir())
+    found: dict[str, dict[str, list[dict[str, Any]]]] = {}
+    for label in labels:
+        directory = results / label
+        if not directory.is_dir():
+            raise FileNotFoundError(f"no results for controller {label!r} in {str(results)!r}")
+        groups = {}
+        for sub in sorted(p for p in directory.iterdir() if p.is_dir()):
+            records = [load_record(path) for path in sorted(sub.glob("*.json"))]
+            if records:
+                groups[sub.name] = records
+        found[label] = groups
+    return found
+
+
+def _fmt(value: float | None, digits: int = 3) -> str:
+    if value is None:
+        return "–"
+    return f"{value:.{digits}g}"
+
+
+def _pm(mean: float, std: float) -> str:
+    return f"{_fmt(mean)} ± {_fmt(std, 2)}"
+
+
+def course_rows(found: dict[str, dict[str, list[dict[str, Any]]]], course: str) -> list[dict[str, Any]]:
+    """One row per controller with results on ``course``, then the thesis's rows."""
+    rows = []
+    for label, groups in found.items():
+        if course in groups:
+            summary = summarise_course(groups[course])
+            rows.append({"source": "krl", "controller": label, **summary})
+    for name, values in THESIS_COURSES_RESULTS.get(course, {}).items():
+        reward, reward_std, targets, targets_std, success, fall = values
+        rows.append(
+            {
+                "source": "thesis",
+                "controller": name,
+                "runs": 16 if name.startswith("Agent") else 4,
+                "targets": 5,
+                "reward_per_step_mean": reward,
+                "reward_per_step_std": reward_std,
+                "targets_reached_mean": targets,
+                "targets_reached_std": targets_std,
+                "success_rate": success,
+                "fall_rate": fall,
+            }
+        )
+    return rows
+
+
+def push_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
+    """One row per (controller, magnitude) of ours, then the thesis's Table 5.5."""
+    rows = []
+    for label, groups in found.items():
+        if PUSH_DIR in groups:
+            for row in summarise_push(groups[PUSH_DIR]):
+                rows.append({"source": "krl", "controller": label, **row})
+    for name, rates in THESIS_PUSH.items():
+        for magnitude, rate in zip(THESIS_PUSH_MAGNITUDES, rates, strict=True):
+            rows.append(
+                {
+                    "source": "thesis",
+                    "controller": name,
+                    "magnitude": magnitude,
+                    "attempts": 10,
+                    "success_rate": rate,
+                }
+            )
+    return rows
+
+
+def _write(path: Path, text: str | bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f".{path.name}.tmp")
+    if isinstance(text, bytes):
+        temporary.write_bytes(text)
+    else:
+        temporary.write_text(text)
+    os.replace(temporary, path)
+
+
+def _csv(rows: list[dict[str, Any]]) -> str:
+    columns: list[str] = []
+    for row in rows:
+        columns += [key for key in row if key not in columns]
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=columns)
+    writer.writeheader()
+    writer.writerows(rows)
+    return buffer.getvalue()
+
+
+def _course_markdown(course: str, rows: list[dict[str, Any]]) -> str:
+    number = TABLE_NUMBERS.get(course)
+    title = f"Table {number}: {course}" if number else f"Course: {course}"
+    lines = [
+        f"### {title}",
+        "",
+        "| source | controller | runs | reward/step | targets reached | success rate | fall rate |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for row in rows:
+        name = row["controller"]
+        if row["source"] == "krl" and name in THESIS_NAMES:
+            name = f"{name} ({THESIS_NAMES[name]})"
+        lines.append(
+            f"| {row['source']} | {name} | {row['runs']} | "
+            f"{_pm(row['reward_per_step_mean'], row['reward_per_step_std'])} | "
+            f"{_pm(row['targets_reached_mean'], row['targets_reached_std'])} of {row['targets']} | "
+            f"{row['success_rate']:.2f} | {row['fall_rate']:.2f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _push_markdown(rows: list[dict[str, Any]]) -> str:
+    magnitudes = sorted({row["magnitude"] for row in rows})
+    controllers: list[tuple[str, str]] = []
+    for row in rows:
+        if (row["source"], row["controller"]) not in controllers:
+            controllers.append((row["source"], row["controller"]))
+    header = "| source | controller | " + " | ".join(f"{m:g} N" for m in magnitudes) + " |"
+    lines = [
+        "### Table 5.5: success rate against push magnitude",
+        "",
+        header,
+        "| --- | --- | " + " | ".join("---" for _ in magnitudes) + " |",
+    ]
+    for source, controller in controllers:
+        rates = {
+            r["magnitude"]: r["success_rate"]
+            for r in rows
+            if (r["source"], r["controller"]) == (source, controller)
+        }
+        cells = " | ".join(f"{rates[m]:.1f}" if m in rates else "–" for m in magnitudes)
+        lines.append(f"| {source} | {controller} | {cells} |")
+    ours = [r for r in rows if r["source"] == "krl"]
+    if ours:
+        first = ours[0]["controller"]
+        impulses = {r["magnitude"]: r for r in ours if r["controller"] == first}
+        lines.append(
+            "| push | impulse [N·s] | "
+            + " | ".join(f"{impulses[m]['impulse']:.2f}" if m in impulses else "–" for m in magnitudes)
+            + " |"
+        )
+        lines.append(
+            "| push | Δv [m/s] | "
+            + " | ".join(f"{impulses[m]['delta_v']:.2f}" if m in impulses else "–" for m in magnitudes)
+            + " |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _plot_courses(path: Path, tables: dict[str, list[dict[str, Any]]]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    courses = list(tables)
+    labels = sorted({row["controller"] for rows in tables.values() for row in rows if row["source"] == "krl"})
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    width = 0.8 / max(len(labels), 1)
+    x = np.arange(len(courses))
+    for axis, key, title in ((axes[0], "success_rate", "success rate"), (axes[1], "fall_rate", "fall rate")):
+        for index, label in enumerate(labels):
+            values = [
+                next((r[key] for r in tables[c] if r["source"] == "krl" and r["controller"] == label), np.nan)
+                for c in courses
+            ]
+            axis.bar(x + (index - (len(labels) - 1) / 2) * width, values, width, label=label)
+        axis.set_xticks(x, courses)
+        axis.set_title(title)
+        axis.set_ylim(0, 1.05)
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110)
+    plt.close(fig)
+    _write(path, buffer.getvalue())
+
+
+def _plot_push(path: Path, rows: list[dict[str, Any]]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axis = plt.subplots(figsize=(7, 4))
+    for source, style in (("krl", "-o"), ("thesis", "--x")):
+        for controller in dict.fromkeys(r["controller"] for r in rows if r["source"] == source):
+            points = sorted(
+                (r["magnitude"], r["success_rate"])
+                for r in rows
+                if r["source"] == source and r["controller"] == controller
+            )
+            axis.plot(*zip(*points, strict=True), style, label=f"{controller} ({source})", alpha=0.9)
+    axis.set_xlabel("push force [N] (one 1 ms physics step per control step for 0.3 s)")
+    axis.set_ylabel("success rate")
+    axis.set_ylim(-0.05, 1.05)
+    axis.legend(fontsize=7)
+    fig.tight_layout()
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110)
+    plt.close(fig)
+    _write(path, buffer.getvalue())
+
+
+def write_report(results: Path, out: Path, controllers: Sequence[str] | None, command: str) -> dict[str, Any]:
+    """Write the tables and plots; returns what was written and the summary rows."""
+    found = collect(results, controllers)
+    course_names = [c for c in THESIS_COURSES if any(c in g for g in found.values())]
+    course_names += sorted({c for g in found.values() for c in g} - set(THESIS_COURSES) - {PUSH_DIR})
+    tables = {course: course_rows(found, course) for course in course_names}
+    pushes = push_rows(found)
+    have_push = any(r["source"] == "krl" for r in pushes)
+    if not tables and not have_push:
+        raise FileNotFoundError(f"no evaluation results in {str(results)!r}")
+    written = []
+    parts = [
+        "# Evaluation results\n",
+        "Made by:\n",
+        f"    {command}\n",
+        "from the results of:\n",
+    ]
+    for label in found:
+        commands_file = results / label / "commands.txt"
+        if commands_file.exists():
+            parts += [f"    {line}" for line in commands_file.read_text().splitlines()]
+    parts.append("")
+    parts.append(
+        "Reward/step: the final reward (Table 4.8 plus the roll/pitch term, `krl.reward`) summed over the "
+        "run and divided by its control steps; mean ± sample std over runs. Targets reached: of the "
+        "course's 5. Success: every waypoint reached; fall: the robot fell (or the run ended in an error).\n"
+    )
+    for course, rows in tables.items():
+        parts.append(_course_markdown(course, rows))
+        path = out / f"course-{course}.csv"
+        _write(path, _csv(rows))
+        written.append(str(path))
+    if have_push:
+        parts.append(_push_markdown(pushes))
+        path = out / "push.csv"
+        _write(path, _csv(pushes))
+        written.append(str(path))
+        _plot_push(out / "push.png", pushes)
+        written.append(str(out / "push.png"))
+        parts.append("![success against push magnitude](push.png)\n")
+    if tables:
+        _plot_courses(out / "courses.png", tables)
+        written.append(str(out / "courses.png"))
+        parts.append("![success and fall rate per course](courses.png)\n")
+    markdown = out / "evaluation.md"
+    _write(markdown, "\n".join(parts))
+    written.insert(0, str(markdown))
+    return {"written": written, "courses": tables, "push": [r for r in pushes if r["source"] == "krl"]}

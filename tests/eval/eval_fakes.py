@@ -1,0 +1,82 @@
+"""A point robot and a do-nothing controller, to score runs whose every number is known by hand."""
+
+import math
+
+import numpy as np
+
+from krl.control.types import JointCommand
+from krl.sim.robot import RobotState
+from krl.timing import CONTROL_DT
+
+
+def make_state(
+    xy=(0.0, 0.0), yaw=0.0, roll=0.0, lin_vel=(0.0, 0.0, 0.0), ang_vel=(0.0, 0.0, 0.0), time=0.0, fallen=False
+) -> RobotState:
+    """A RobotState of a trunk at ``xy`` with the given roll and yaw [rad] (pitch 0)."""
+    cr, sr, cy, sy = math.cos(roll), math.sin(roll), math.cos(yaw), math.sin(yaw)
+    rot = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]]) @ np.array(
+        [[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]]
+    )
+    base = np.array([xy[0], xy[1], 0.3])
+    return RobotState(
+        time=time,
+        base_pos=base,
+        base_quat=np.array([1.0, 0.0, 0.0, 0.0]),
+        base_rot=rot,
+        rpy=np.array([roll, 0.0, yaw]),
+        projected_gravity=rot.T @ np.array([0.0, 0.0, -1.0]),
+        lin_vel_world=np.asarray(lin_vel, float),
+        lin_vel_base=rot.T @ np.asarray(lin_vel, float),
+        ang_vel_world=np.asarray(ang_vel, float),
+        ang_vel_base=rot.T @ np.asarray(ang_vel, float),
+        joint_pos=np.zeros(12),
+        joint_vel=np.zeros(12),
+        joint_torque=np.zeros(12),
+        foot_pos_world=np.zeros((4, 3)),
+        foot_pos_base=np.zeros((4, 3)),
+        foot_force=np.zeros(4),
+        foot_contact=np.ones(4, bool),
+        com=base.copy(),
+        trunk_contact=fallen,
+        fallen=fallen,
+    )
+
+
+class PointSim:
+    """Moves ``speed_per_step`` metres along +x every control step, level, and falls on step ``fall_at``."""
+
+    def __init__(self, speed_per_step=0.25, fall_at=None):
+        self.speed_per_step = speed_per_step
+        self.fall_at = fall_at
+        self.steps = 0
+        self.state = make_state()
+
+    @property
+    def time(self):
+        return self.steps * CONTROL_DT
+
+    def reset(self, xy=(0.0, 0.0), yaw=0.0):
+        self.steps = 0
+        self.state = make_state(xy=xy, yaw=yaw)
+        return self.state
+
+    def step(self, q_target, kp=None, kd=None, tau_ff=None):
+        self.steps += 1
+        x = self.state.base_pos[0] + self.speed_per_step
+        self.state = make_state(
+            xy=(x, self.state.base_pos[1]), time=self.time, fallen=self.steps == self.fall_at
+        )
+        return self.state
+
+    def push(self, push):
+        self.pushed = push
+
+
+class StandStill:
+    """A controller that does nothing."""
+
+    def reset(self, state):
+        pass
+
+    def act(self, state, command):
+        return JointCommand(np.zeros(12))

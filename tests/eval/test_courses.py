@@ -1,0 +1,75 @@
+"""Course files: the shipped ones load, bad ones fail with one line naming the problem."""
+
+import pytest
+
+from krl.eval.courses import SHIPPED_COURSES, THESIS_COURSES, CourseError, load_course
+
+GOOD = """
+format = 1
+name = "mine"
+time_limit = 30.0
+d_min = 0.5
+waypoints = [[2.0, 0.0], [2.0, 2.0]]
+starts = [[0.0, 0.0, 0.0]]
+
+[terrain]
+name = "flat"
+"""
+
+
+@pytest.mark.parametrize("name", SHIPPED_COURSES)
+def test_shipped_courses_load(name):
+    course = load_course(name)
+    assert course.name == name and course.terrain == name
+    assert len(course.waypoints) == 5 and len(course.starts) == 4
+    assert course.d_min == 0.5 and course.time_limit > 0
+    model = course.build()
+    assert model.terrain.name == name
+
+
+def test_thesis_courses_and_their_inclines():
+    assert set(THESIS_COURSES) < set(SHIPPED_COURSES)
+    assert load_course("sinusoid").terrain_params["max_incline"] == 0.2
+    assert load_course("stairs").terrain_params["step_height"] == 0.04
+    assert load_course("tabletop").terrain_params["max_tilt"] == 0.087
+    assert load_course("seesaw").terrain_params["max_tilt"] == 0.1
+
+
+def test_a_users_file_loads_and_its_fingerprint_follows_its_content(tmp_path):
+    path = tmp_path / "mine.toml"
+    path.write_text(GOOD)
+    course = load_course(path)
+    assert course.waypoints == ((2.0, 0.0), (2.0, 2.0)) and course.terrain_seed == 0
+    path.write_text(GOOD.replace("[2.0, 2.0]", "[2.0, 2.5]"))
+    assert load_course(path).fingerprint != course.fingerprint
+
+
+@pytest.mark.parametrize(
+    "old, new, message",
+    [
+        ("format = 1", "format = 7", "format 7 is not supported"),
+        ("d_min = 0.5", "d_min = -1", "d_min must be a number > 0"),
+        ("time_limit = 30.0", "", "missing key"),
+        ("[[2.0, 0.0], [2.0, 2.0]]", "[[2.0, 0.0], [2.0]]", r"waypoints\[1\] must be 2 finite numbers"),
+        ("[[0.0, 0.0, 0.0]]", "[]", "starts must be a non-empty list"),
+        ('name = "flat"', 'name = "lava"', "terrain: unknown terrain 'lava'"),
+        ('name = "flat"', 'name = "flat"\nparams = { bumps = 3 }', "terrain: .*bumps"),
+        ("d_min = 0.5", "d_min = 0.5\nspeed = 3", "unknown key"),
+        ("[[0.0, 0.0, 0.0]]", "[[1.8, 0.0, 0.0]]", r"starts\[0\] is within d_min"),
+    ],
+)
+def test_bad_course_files(tmp_path, old, new, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(GOOD.replace(old, new))
+    with pytest.raises(CourseError, match=message) as info:
+        load_course(path)
+    assert "\n" not in str(info.value) and str(path) in str(info.value)
+
+
+def test_unknown_course_name_and_broken_toml(tmp_path):
+    with pytest.raises(CourseError, match=r"unknown course 'moon'.*flat"):
+        load_course("moon")
+    path = tmp_path / "broken.toml"
+    path.write_text("format = = 1")
+    with pytest.raises(CourseError, match="not a valid TOML file"):
+        load_course(path)

@@ -1,0 +1,159 @@
+"""krl evaluate's executor and krl report: resumable, worker-count independent, one-line errors."""
+
+import json
+
+import pytest
+
+from krl.cli import main
+from krl.eval import evaluate
+from krl.eval.controllers import ControllerSpecError, parse_controller
+from krl.eval.courses import load_course
+from krl.eval.episodes import PushSweep
+
+TINY = """
+format = 1
+name = "tiny"
+time_limit = 0.25
+d_min = 0.5
+waypoints = [[3.0, 0.0]]
+starts = [[0.0, 0.0, 0.0], [0.0, 0.2, 0.3]]
+
+[terrain]
+name = "flat"
+"""
+
+
+@pytest.fixture
+def tiny(tmp_path):
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY)
+    return path
+
+
+def test_runs_are_stored_and_not_redone(tmp_path, tiny):
+    spec = parse_controller("kernel")
+    tasks = evaluate.course_tasks(spec, [load_course(tiny)], seeds=[150, 215])
+    assert [t.key for t in tasks] == ["tiny/start0", "tiny/start1"]  # the kernel does not depend on a seed
+    seen = []
+    records = evaluate.execute(tasks, tmp_path / "out", on_done=lambda task, record, ran: seen.append(ran))
+    assert seen == [True, True]
+    assert (tmp_path / "out" / "kernel-base" / "tiny" / "start1.json").exists()
+    assert records[0]["metrics"]["steps"] == 50 and records[0]["metrics"]["timed_out"] is True
+    seen.clear()
+    again = evaluate.execute(tasks, tmp_path / "out", on_done=lambda task, record, ran: seen.append(ran))
+    assert seen == [False, False] and again == records
+
+
+def test_results_do_not_depend_on_the_worker_count(tmp_path, tiny):
+    tasks = evaluate.course_tasks(parse_controller("kernel"), [load_course(tiny)], seeds=[0])
+    one = evaluate.execute(tasks, tmp_path / "one", workers=1)
+    two = evaluate.execute(tasks, tmp_path / "two", workers=2)
+    for a, b in zip(one, two, strict=True):
+        a["metrics"].pop("wall_seconds"), b["metrics"].pop("wall_seconds")
+        assert a == b
+
+
+def test_a_changed_course_or_a_corrupt_file_is_refused(tmp_path, tiny):
+    spec = parse_controller("kernel")
+    out = tmp_path / "out"
+    evaluate.execute(evaluate.course_tasks(spec, [load_course(tiny)], [0]), out)
+    tiny.write_text(TINY.replace("[3.0, 0.0]", "[4.0, 0.0]"))
+    changed = evaluate.course_tasks(spec, [load_course(tiny)], [0])
+    with pytest.raises(evaluate.EvaluationError, match="different controller, course or sweep"):
+        evaluate.execute(changed, out)
+    (out / "kernel-base" / "tiny" / "start0.json").write_text("{not json")
+    with pytest.raises(evaluate.EvaluationError, match="corrupt result file"):
+        evaluate.execute(changed, out)
+
+
+def test_push_sweep_records_the_push(tmp_path):
+    sweep = PushSweep(magnitudes=(300.0, 600.0), attempts=1, window=(0.05, 0.1), time_limit=0.3)
+    tasks = evaluate.push_tasks(parse_controller("kernel"), sweep)
+    assert [t.key for t in tasks] == ["push/m300-a0", "push/m600-a0"]
+    records = evaluate.execute(tasks, tmp_path)
+    push = records[1]["metrics"]["push"]
+    assert push["magnitude"] == pytest.approx(600.0)
+    assert push["impulse"] == pytest.approx(600.0 * 60 * 0.001)  # 60 control steps, 1 ms each
+    rows = evaluate.summarise_push(records)
+    assert [r["magnitude"] for r in rows] == [300.0, 600.0] and rows[0]["attempts"] == 1
+
+
+def test_course_summary_by_hand():
+    def record(reached, fell, reward, error=None):
+        success = reached == 5 and not fell and error is None
+        return {
+            "metrics": {
+                "targets": 5,
+                "targets_reached": reached,
+                "success": success,
+                "fell": fell,
+                "error": error,
+                "reward_per_step": reward,
+                "distance_walked": 1.0,
+                "time_to_finish": 30.0 if success else None,
+            }
+        }
+
+    summary = evaluate.summarise_course(
+        [
+            record(5, False, 0.1),
+            record(3, True, 0.05),
+            record(0, False, 0.02, "MPCError: x"),
+            record(5, False, 0.09),
+        ]
+    )
+    assert summary["runs"] == 4
+    assert summary["targets_reached_mean"] == pytest.approx(13 / 4)
+    assert summary["targets_reached_std"] == pytest.approx(2.3629078, rel=1e-6)  # sample std of 5, 3, 0, 5
+    assert summary["success_rate"] == 0.5 and summary["fall_rate"] == 0.5 and summary["error_runs"] == 1
+    assert summary["time_to_finish_mean"] == 30.0
+
+
+def test_unknown_controller_and_missing_model():
+    with pytest.raises(ControllerSpecError, match="unknown controller 'ppo'"):
+        parse_controller("ppo")
+    with pytest.raises(ControllerSpecError, match="no kernel file"):
+        parse_controller("kernel:/nowhere/kernel.npz")
+
+
+def test_cli_evaluate_then_report(tmp_path, tiny, capsys):
+    out, docs = tmp_path / "results", tmp_path / "docs"
+    argv = [
+        "evaluate",
+        "--controller",
+        "kernel",
+        "--course",
+        str(tiny),
+        "--out",
+        str(out),
+        "--workers",
+        "1",
+        "--quiet",
+        "--json",
+    ]
+    assert main(argv) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["ran"] == 2 and summary["controllers"]["kernel-base"]["tiny"]["runs"] == 2
+    assert main(argv) == 0
+    assert json.loads(capsys.readouterr().out)["ran"] == 0
+    assert main(["report", "--results", str(out), "--out", str(docs), "--json"]) == 0
+    written = json.loads(capsys.readouterr().out)["written"]
+    assert str(docs / "evaluation.md") in written and (docs / "courses.png").exists()
+    text = (docs / "evaluation.md").read_text()
+    assert "krl evaluate --controller kernel" in text and "| krl | kernel-base" in text
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["evaluate", "--controller", "ppo", "--course", "flat"], "unknown controller 'ppo'"),
+        (["evaluate", "--controller", "kernel:missing.npz", "--course", "flat"], "no kernel file"),
+        (["evaluate", "--controller", "expert", "--course", "moon"], "unknown course 'moon'"),
+        (["evaluate", "--controller", "expert", "--push-sweep", "--magnitudes", "9:1:5"], "--magnitudes"),
+        (["report", "--results", "/nonexistent/results"], "no results directory"),
+    ],
+)
+def test_cli_errors_are_one_line(argv, message, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
