@@ -32,6 +32,18 @@ def test_render_writes_a_png(tmp_path, terrain, capsys):
     assert "wrote" in capsys.readouterr().out
 
 
+@needs_gl
+def test_render_a_course_shows_its_waypoints(tmp_path, capsys):
+    from PIL import Image
+
+    out = tmp_path / "tabletop.png"
+    assert main(["render", "--course", "tabletop", "--out", str(out), "--width", "320", "--height", "240"]) == 0
+    pixels = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    red = (pixels[..., 0] > 150) & (pixels[..., 1] < 60) & (pixels[..., 2] < 60)
+    assert red.sum() > 50  # the red waypoint posts are in the picture
+    assert "terrain tabletop" in capsys.readouterr().out
+
+
 def test_bench_sim_json(capsys):
     assert main(["bench", "sim", "--json", "--steps", "50", "--repeats", "1"]) == 0
     result = json.loads(capsys.readouterr().out)

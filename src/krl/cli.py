@@ -80,9 +80,25 @@ def cmd_terrains(args: argparse.Namespace) -> int:
 def cmd_render(args: argparse.Namespace) -> int:
     from krl.sim.render import CameraView, FrameRenderer, write_png
 
-    sim = _build_sim(args)
+    if args.course:
+        import numpy as np
+
+        from krl.eval.courses import load_course
+        from krl.sim.robot import A1Sim
+
+        course = load_course(args.course)
+        sim = A1Sim(course.build(markers=True))
+        x, y, yaw = course.starts[0]
+        sim.reset(xy=(x, y), yaw=yaw)
+        points = np.array([*course.waypoints, *(s[:2] for s in course.starts)])
+        low, high = points.min(axis=0), points.max(axis=0)
+        centre = (*((low + high) / 2), float(sim.terrain.height(*((low + high) / 2))))
+        distance = args.distance or 0.8 * float(np.max(high - low)) + 1.5
+        view = CameraView(distance, args.azimuth, args.elevation if args.elevation else -35.0, lookat=centre)
+    else:
+        sim = _build_sim(args)
+        view = CameraView(args.distance or 3.0, args.azimuth, args.elevation or -25.0)
     _settle(sim, args.settle)
-    view = CameraView(distance=args.distance, azimuth=args.azimuth, elevation=args.elevation)
     with FrameRenderer(sim.model, args.width, args.height, view) as renderer:
         image = renderer.render(sim.data)
     path = write_png(image, args.out)
@@ -260,9 +276,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--width", type=int, default=960)
     p.add_argument("--height", type=int, default=640)
     p.add_argument("--settle", type=float, default=0.5, help="seconds of standing before the frame [s]")
-    p.add_argument("--distance", type=float, default=3.0, help="camera distance from the trunk [m]")
+    p.add_argument(
+        "--course", help="render a course (name or file) from above, waypoints as red posts, robot at start 0"
+    )
+    p.add_argument("--distance", type=float, help="camera distance [m] (default 3 from the trunk; fits a course)")
     p.add_argument("--azimuth", type=float, default=135.0, help="camera azimuth [deg]")
-    p.add_argument("--elevation", type=float, default=-25.0, help="camera elevation [deg]")
+    p.add_argument("--elevation", type=float, help="camera elevation [deg] (default -25; -35 for a course)")
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("view", help="open MuJoCo's interactive viewer on a terrain (needs a display)")

@@ -16,6 +16,8 @@ from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 import tomllib
 
 COURSE_FORMAT = 1
@@ -76,11 +78,17 @@ class Course:
         text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
 
-    def build(self):
-        """Compile the course's model (:class:`krl.sim.model.BuiltModel`)."""
+    def build(self, markers: bool = False):
+        """Compile the course's model (:class:`krl.sim.model.BuiltModel`); ``markers`` shows the
+        waypoints as red posts (for pictures; the dynamics do not change)."""
         from krl.sim.model import build_model
 
-        return build_model(self.terrain, self.terrain_params, self.terrain_seed)
+        built = build_model(self.terrain, self.terrain_params, self.terrain_seed)
+        if not markers:
+            return built
+        x, y = np.array(self.waypoints).T
+        points = [(float(a), float(b), float(c)) for a, b, c in zip(x, y, built.terrain.height(x, y), strict=True)]
+        return build_model(self.terrain, self.terrain_params, self.terrain_seed, markers=points)
 
 
 def shipped_course_path(name: str) -> Path:

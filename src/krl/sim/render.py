@@ -34,7 +34,7 @@ class RenderError(RuntimeError):
 
 @dataclass(frozen=True)
 class CameraView:
-    """A camera that tracks the trunk."""
+    """A camera that tracks the trunk, or looks at a fixed point."""
 
     distance: float = 1.6
     """Distance from the tracked point [m]."""
@@ -42,6 +42,8 @@ class CameraView:
     """Horizontal angle [deg] (MuJoCo convention)."""
     elevation: float = -20.0
     """Vertical angle [deg]; negative looks down."""
+    lookat: tuple[float, float, float] | None = None
+    """World point [m] to look at instead of tracking the trunk (a course overview)."""
 
 
 class FrameRenderer:
@@ -71,8 +73,12 @@ class FrameRenderer:
             ) from error
         view = view or CameraView()
         self._camera = mujoco.MjvCamera()
-        self._camera.type = mujoco.mjtCamera.mjCAMERA_TRACKING
-        self._camera.trackbodyid = model.body("trunk").id
+        if view.lookat is None:
+            self._camera.type = mujoco.mjtCamera.mjCAMERA_TRACKING
+            self._camera.trackbodyid = model.body("trunk").id
+        else:
+            self._camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+            self._camera.lookat[:] = view.lookat
         self._camera.distance = view.distance
         self._camera.azimuth = view.azimuth
         self._camera.elevation = view.elevation
