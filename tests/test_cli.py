@@ -37,7 +37,8 @@ def test_render_a_course_shows_its_waypoints(tmp_path, capsys):
     from PIL import Image
 
     out = tmp_path / "tabletop.png"
-    assert main(["render", "--course", "tabletop", "--out", str(out), "--width", "320", "--height", "240"]) == 0
+    argv = ["render", "--course", "tabletop", "--out", str(out), "--width", "320", "--height", "240"]
+    assert main(argv) == 0
     pixels = np.asarray(Image.open(out).convert("RGB")).astype(int)
     red = (pixels[..., 0] > 150) & (pixels[..., 1] < 60) & (pixels[..., 2] < 60)
     assert red.sum() > 50  # the red waypoint posts are in the picture

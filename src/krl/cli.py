@@ -279,7 +279,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--course", help="render a course (name or file) from above, waypoints as red posts, robot at start 0"
     )
-    p.add_argument("--distance", type=float, help="camera distance [m] (default 3 from the trunk; fits a course)")
+    p.add_argument("--distance", type=float, help="camera distance [m] (default 3; a course: fitted)")
     p.add_argument("--azimuth", type=float, default=135.0, help="camera azimuth [deg]")
     p.add_argument("--elevation", type=float, help="camera elevation [deg] (default -25; -35 for a course)")
     p.set_defaults(func=cmd_render)

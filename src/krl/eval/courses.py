@@ -11,14 +11,13 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import tomllib
 from dataclasses import dataclass, field
 from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-import tomllib
 
 COURSE_FORMAT = 1
 """Version of the course file format."""
@@ -87,7 +86,8 @@ class Course:
         if not markers:
             return built
         x, y = np.array(self.waypoints).T
-        points = [(float(a), float(b), float(c)) for a, b, c in zip(x, y, built.terrain.height(x, y), strict=True)]
+        z = built.terrain.height(x, y)
+        points = [(float(a), float(b), float(c)) for a, b, c in zip(x, y, z, strict=True)]
         return build_model(self.terrain, self.terrain_params, self.terrain_seed, markers=points)
 
 
