@@ -157,3 +157,19 @@ def test_cli_errors_are_one_line(argv, message, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
+
+
+def test_video_of_the_first_run(tmp_path, tiny):
+    from krl.sim.render import FrameRenderer, RenderError
+
+    try:
+        FrameRenderer(load_course(tiny).build().model, 32, 32).close()
+    except RenderError as error:
+        pytest.skip(f"offscreen rendering unavailable: {error}")
+    tasks = evaluate.course_tasks(
+        parse_controller("kernel"), [load_course(tiny)], [0], video_dir=tmp_path / "v"
+    )
+    assert [t.video is not None for t in tasks] == [True, False]
+    evaluate.execute(tasks, tmp_path / "out")
+    video = tmp_path / "v" / "kernel-base" / "tiny-start0.mp4"
+    assert video.stat().st_size > 1000

@@ -250,7 +250,7 @@ def _plot_courses(path: Path, tables: dict[str, list[dict[str, Any]]]) -> None:
         axis.set_xticks(x, courses)
         axis.set_title(title)
         axis.set_ylim(0, 1.05)
-    axes[0].legend(fontsize=8)
+    axes[1].legend(fontsize=8, loc="upper right")
     fig.tight_layout()
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=110)
