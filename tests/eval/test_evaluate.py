@@ -44,6 +44,19 @@ def test_runs_are_stored_and_not_redone(tmp_path, tiny):
     assert seen == [False, False] and again == records
 
 
+def test_two_controllers_keep_their_own_records(tmp_path, tiny):
+    course = load_course(tiny)
+    tasks = [
+        *evaluate.course_tasks(parse_controller("kernel"), [course], [0]),
+        *evaluate.course_tasks(parse_controller("kernel:ext"), [course], [0]),
+    ]
+    for _ in range(2):  # run, then read back from storage
+        records = evaluate.execute(tasks, tmp_path)
+        labels = [r["controller"]["label"] for r in records]
+        assert labels == ["kernel-base", "kernel-base", "kernel-ext", "kernel-ext"]
+        assert records[0]["metrics"] != records[2]["metrics"]
+
+
 def test_results_do_not_depend_on_the_worker_count(tmp_path, tiny):
     tasks = evaluate.course_tasks(parse_controller("kernel"), [load_course(tiny)], seeds=[0])
     one = evaluate.execute(tasks, tmp_path / "one", workers=1)

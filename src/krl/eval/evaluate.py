@@ -174,20 +174,20 @@ def execute(
     """
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
-    records: dict[str, dict[str, Any]] = {}
+    records: dict[tuple[str, str], dict[str, Any]] = {}  # by (controller label, run key)
     pending = []
     for task in tasks:
         path = result_path(out, task)
         if path.exists() and not (task.video and not Path(task.video).exists()):
-            records[task.key] = load_record(path, task)
+            record = records[task.controller.label, task.key] = load_record(path, task)
             if on_done is not None:
-                on_done(task, records[task.key], False)
+                on_done(task, record, False)
         else:
             pending.append(task)
 
     def finish(task: Task, record: dict[str, Any]) -> None:
         _write_atomic(result_path(out, task), record)
-        records[task.key] = record
+        records[task.controller.label, task.key] = record
         if on_done is not None:
             on_done(task, record, True)
 
@@ -206,7 +206,7 @@ def execute(
                 for future in futures:
                     future.cancel()
                 raise
-    return [records[task.key] for task in tasks]
+    return [records[task.controller.label, task.key] for task in tasks]
 
 
 # --- aggregates --------------------------------------------------------------------------------------
