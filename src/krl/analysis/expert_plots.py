@@ -25,15 +25,11 @@ deviation. The trunk's roll and pitch standard deviations (rocking seen as tilt)
 from __future__ import annotations
 
 import argparse
-import contextlib
-import csv
-import io
 import json
 import math
 import multiprocessing
 import os
 import sys
-import tempfile
 import time
 from collections.abc import Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -43,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from krl.output import FIG_DPI, csv_bytes, figure_bytes, json_value, write_atomic
 from krl.runner import HOLD_RAMP, HOLD_SETTLE, TARGET_TIME_LIMIT
 from krl.timing import CONTROL_DT
 
@@ -119,7 +116,6 @@ PATH_DECIMATION: int = 10
 """Every how many control steps the drawn CoM path keeps a point."""
 
 FIG_SIZE: tuple[float, float] = (9.0, 6.0)
-FIG_DPI: int = 100
 
 
 # --- metrics ---------------------------------------------------------------------------------------
@@ -540,58 +536,6 @@ def _execute(jobs: list[Job], workers: int, progress: _Progress) -> dict[Job, di
 # --- output -----------------------------------------------------------------------------------------
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same folder and ``os.replace``."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-
-
-def _json_value(value: Any) -> Any:
-    """Floats rounded for the tables; NaN becomes null."""
-    if isinstance(value, float):
-        return None if not math.isfinite(value) else round(value, 6)
-    if isinstance(value, dict):
-        return {key: _json_value(v) for key, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_value(v) for v in value]
-    return value
-
-
-def _csv_bytes(columns: Sequence[str], rows: Sequence[dict[str, Any]]) -> bytes:
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=list(columns), lineterminator="\n")
-    writer.writeheader()
-    for row in rows:
-        writer.writerow(
-            {key: ("" if _json_value(row[key]) is None else _json_value(row[key])) for key in columns}
-        )
-    return buffer.getvalue().encode()
-
-
-def _figure_bytes(fig) -> bytes:
-    """The figure as a PNG with a 256-colour palette (a third of the size of full colour, same look)."""
-    from PIL import Image
-
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=FIG_DPI)
-    buffer.seek(0)
-    with Image.open(buffer) as image:
-        palette = image.convert("RGB").quantize(
-            colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE
-        )
-    out = io.BytesIO()
-    palette.save(out, format="PNG", optimize=True)
-    return out.getvalue()
-
-
 COM_COLUMNS: tuple[str, ...] = (
     "label",
     "stance_duration",
@@ -902,10 +846,10 @@ def make_figures(
             fig = _plot_com(name, conditions, results, settings)
             columns = COM_COLUMNS
         paths = {kind: out_dir / f"{name}.{kind}" for kind in ("png", "json", "csv")}
-        table = _json_value(table)
-        _write_atomic(paths["png"], _figure_bytes(fig))
-        _write_atomic(paths["json"], (json.dumps(table, indent=2, ensure_ascii=False) + "\n").encode())
-        _write_atomic(paths["csv"], _csv_bytes(columns, rows))
+        table = json_value(table)
+        write_atomic(paths["png"], figure_bytes(fig))
+        write_atomic(paths["json"], (json.dumps(table, indent=2, ensure_ascii=False) + "\n").encode())
+        write_atomic(paths["csv"], csv_bytes(columns, rows))
         figures[name] = {**{kind: str(path) for kind, path in paths.items()}, "table": table}
     return {
         "figures": figures,

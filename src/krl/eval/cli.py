@@ -141,12 +141,11 @@ def run_evaluate(args: argparse.Namespace) -> int:
 
 def _remember_command(path: Path, command: str) -> None:
     """Append ``command`` to the controller's list of evaluate commands (once)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from krl.output import write_atomic
+
     known = path.read_text().splitlines() if path.exists() else []
     if command not in known:
-        temporary = path.with_name(f".{path.name}.tmp")
-        temporary.write_text("\n".join([*known, command]) + "\n")
-        os.replace(temporary, path)
+        write_atomic(path, "\n".join([*known, command]) + "\n")
 
 
 def add_report_arguments(parser: argparse.ArgumentParser) -> None:

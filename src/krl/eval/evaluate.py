@@ -12,7 +12,6 @@ do not depend on the number of workers or on the order in which runs finish.
 from __future__ import annotations
 
 import json
-import os
 import statistics
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -26,6 +25,7 @@ import numpy as np
 from krl.eval.controllers import ControllerSpec
 from krl.eval.courses import Course
 from krl.eval.episodes import PushSweep, score_push_attempt, score_walk
+from krl.output import write_atomic
 
 RESULT_FORMAT = 1
 """Version of the per-run result files."""
@@ -154,13 +154,6 @@ def load_record(path: Path, task: Task | None = None) -> dict[str, Any]:
     return record
 
 
-def _write_atomic(path: Path, record: dict[str, Any]) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.tmp")
-    temporary.write_text(json.dumps(record, indent=1))
-    os.replace(temporary, path)
-
-
 def execute(
     tasks: Sequence[Task],
     out: Path,
@@ -186,7 +179,7 @@ def execute(
             pending.append(task)
 
     def finish(task: Task, record: dict[str, Any]) -> None:
-        _write_atomic(result_path(out, task), record)
+        write_atomic(result_path(out, task), json.dumps(record, indent=1))
         records[task.controller.label, task.key] = record
         if on_done is not None:
             on_done(task, record, True)
@@ -218,6 +211,11 @@ def _mean_std(values: Sequence[float]) -> tuple[float, float]:
     return mean, (statistics.stdev(values) if len(values) > 1 else 0.0)
 
 
+def _counts_as_fall(metrics: dict[str, Any]) -> bool:
+    """A fall, or a run that ended with an error (diverging simulation, MPC failure)."""
+    return bool(metrics["fell"] or metrics["error"] is not None)
+
+
 def summarise_course(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """Mean ± std over a course's runs: reward per step, waypoints reached; success and fall rates.
 
@@ -238,7 +236,7 @@ def summarise_course(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "targets_reached_mean": targets[0],
         "targets_reached_std": targets[1],
         "success_rate": sum(m["success"] for m in metrics) / len(metrics),
-        "fall_rate": sum(m["fell"] or m["error"] is not None for m in metrics) / len(metrics),
+        "fall_rate": sum(_counts_as_fall(m) for m in metrics) / len(metrics),
         "error_runs": sum(m["error"] is not None for m in metrics),
         "time_to_finish_mean": statistics.fmean(finish_times) if finish_times else None,
         "distance_walked_mean": distance[0],
@@ -259,8 +257,7 @@ def summarise_push(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
                 "magnitude": magnitude,
                 "attempts": len(group),
                 "success_rate": sum(r["metrics"]["success"] for r in group) / len(group),
-                "fall_rate": sum(r["metrics"]["fell"] or r["metrics"]["error"] is not None for r in group)
-                / len(group),
+                "fall_rate": sum(_counts_as_fall(r["metrics"]) for r in group) / len(group),
                 "impulse": statistics.fmean(r["metrics"]["push"]["impulse"] for r in group),
                 "delta_v": statistics.fmean(r["metrics"]["push"]["delta_v"] for r in group),
             }

@@ -8,15 +8,13 @@ results), one CSV per table, ``courses.png`` (success and fall rate per course a
 
 from __future__ import annotations
 
-import csv
-import io
-import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from krl.eval.courses import THESIS_COURSES
 from krl.eval.evaluate import PUSH_DIR, load_record, summarise_course, summarise_push
+from krl.output import csv_bytes, figure_bytes, write_atomic
 
 THESIS_NAMES = {
     "expert-stance0.3": "MPC (τ_stance=0.3)",
@@ -147,25 +145,12 @@ def push_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[st
     return rows
 
 
-def _write(path: Path, text: str | bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.tmp")
-    if isinstance(text, bytes):
-        temporary.write_bytes(text)
-    else:
-        temporary.write_text(text)
-    os.replace(temporary, path)
-
-
-def _csv(rows: list[dict[str, Any]]) -> str:
+def _csv(rows: list[dict[str, Any]]) -> bytes:
+    """Every key of any row is a column (thesis rows lack some of ours)."""
     columns: list[str] = []
     for row in rows:
         columns += [key for key in row if key not in columns]
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=columns)
-    writer.writeheader()
-    writer.writerows(rows)
-    return buffer.getvalue()
+    return csv_bytes(columns, [{c: row.get(c) for c in columns} for row in rows])
 
 
 def _course_markdown(course: str, rows: list[dict[str, Any]]) -> str:
@@ -252,10 +237,8 @@ def _plot_courses(path: Path, tables: dict[str, list[dict[str, Any]]]) -> None:
         axis.set_ylim(0, 1.05)
     axes[1].legend(fontsize=8, loc="upper right")
     fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=110)
+    write_atomic(path, figure_bytes(fig))
     plt.close(fig)
-    _write(path, buffer.getvalue())
 
 
 def _plot_push(path: Path, rows: list[dict[str, Any]]) -> None:
@@ -278,10 +261,8 @@ def _plot_push(path: Path, rows: list[dict[str, Any]]) -> None:
     axis.set_ylim(-0.05, 1.05)
     axis.legend(fontsize=7)
     fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=110)
+    write_atomic(path, figure_bytes(fig))
     plt.close(fig)
-    _write(path, buffer.getvalue())
 
 
 def write_report(results: Path, out: Path, controllers: Sequence[str] | None, command: str) -> dict[str, Any]:
@@ -314,12 +295,12 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
     for course, rows in tables.items():
         parts.append(_course_markdown(course, rows))
         path = out / f"course-{course}.csv"
-        _write(path, _csv(rows))
+        write_atomic(path, _csv(rows))
         written.append(str(path))
     if have_push:
         parts.append(_push_markdown(pushes))
         path = out / "push.csv"
-        _write(path, _csv(pushes))
+        write_atomic(path, _csv(pushes))
         written.append(str(path))
         _plot_push(out / "push.png", pushes)
         written.append(str(out / "push.png"))
@@ -329,6 +310,6 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
         written.append(str(out / "courses.png"))
         parts.append("![success and fall rate per course](courses.png)\n")
     markdown = out / "evaluation.md"
-    _write(markdown, "\n".join(parts))
+    write_atomic(markdown, "\n".join(parts))
     written.insert(0, str(markdown))
     return {"written": written, "courses": tables, "push": [r for r in pushes if r["source"] == "krl"]}

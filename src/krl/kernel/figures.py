@@ -16,7 +16,7 @@
 - ``all``: the six.
 
 Each figure gives ``NAME.png``, ``NAME.json`` and ``NAME.csv`` in the output folder, each written
-atomically (temporary file + ``os.replace``) with the writers of :mod:`krl.analysis.expert_plots`.
+atomically (temporary file + ``os.replace``) with the writers of :mod:`krl.output`.
 """
 
 from __future__ import annotations
@@ -37,16 +37,12 @@ import numpy as np
 
 from krl.analysis.expert_plots import (
     DEFAULT_DURATION,
-    FIG_DPI,
     QUICK_DURATION,
-    _csv_bytes,
-    _figure_bytes,
-    _json_value,
-    _write_atomic,
     draw_fit_and_axes,
     fit_line,
     print_json_summary,
 )
+from krl.output import FIG_DPI, csv_bytes, figure_bytes, json_value, write_atomic
 from krl.robots.a1.constants import FOOT_RADIUS, LEG_NAMES, NUM_LEGS
 from krl.runner import HOLD_RAMP, HOLD_SETTLE
 from krl.timing import CONTROL_DT
@@ -1419,11 +1415,11 @@ def make_kernel_figures(
             built = _velocity(paths["base"], expert, run)
         table, columns, rows, fig = built
         table["kernels"] = {key: str(path) for key, path in paths.items()}
-        table = _json_value(table)
+        table = json_value(table)
         files = {kind: out / f"{name}.{kind}" for kind in ("png", "json", "csv")}
-        _write_atomic(files["png"], _figure_bytes(fig))
-        _write_atomic(files["json"], (json.dumps(table, indent=2, ensure_ascii=False) + "\n").encode())
-        _write_atomic(files["csv"], _csv_bytes(columns, [{c: row.get(c) for c in columns} for row in rows]))
+        write_atomic(files["png"], figure_bytes(fig))
+        write_atomic(files["json"], (json.dumps(table, indent=2, ensure_ascii=False) + "\n").encode())
+        write_atomic(files["csv"], csv_bytes(columns, [{c: row.get(c) for c in columns} for row in rows]))
         figures[name] = {**{kind: str(path) for kind, path in files.items()}, "table": table}
         _say(run, f"{name}: wrote {files['png']}")
     return {"figures": figures, "workers": workers, "wall_seconds": round(time.perf_counter() - start, 2)}

@@ -19,7 +19,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
 import statistics
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -28,6 +27,7 @@ from typing import Any
 
 from krl.kernel.model import NetworkConfig
 from krl.kernel.train import TrainConfig, train_kernel
+from krl.output import write_atomic
 
 STUDIES: tuple[str, ...] = ("variants", "data-size", "stance")
 THESIS_SEEDS: tuple[int, ...] = (150, 215, 345, 556)
@@ -173,13 +173,6 @@ def summarise(records: Sequence[dict[str, Any]], key: str) -> list[dict[str, Any
     return rows
 
 
-def _write(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.tmp")
-    temporary.write_text(text)
-    os.replace(temporary, path)
-
-
 def write_table(
     study: str, rows: list[dict[str, Any]], records: list[dict[str, Any]], out: Path, command: str
 ) -> Path:
@@ -189,13 +182,15 @@ def write_table(
     writer = csv.DictWriter(buffer, fieldnames=columns)
     writer.writeheader()
     writer.writerows(rows)
-    _write(out / f"{study}.csv", buffer.getvalue())
-    _write(out / f"{study}.json", json.dumps({"rows": rows, "runs": records, "command": command}, indent=2))
+    write_atomic(out / f"{study}.csv", buffer.getvalue())
+    write_atomic(
+        out / f"{study}.json", json.dumps({"rows": rows, "runs": records, "command": command}, indent=2)
+    )
     header = "| " + " | ".join(columns) + " |\n| " + " | ".join("---" for _ in columns) + " |\n"
     lines = ["| " + " | ".join(_format(row[c]) for c in columns) + " |" for row in rows]
     text = f"# Kernel study: {study}\n\nMade by:\n\n    {command}\n\n" + header + "\n".join(lines) + "\n"
     path = out / f"{study}.md"
-    _write(path, text)
+    write_atomic(path, text)
     return path
 
 

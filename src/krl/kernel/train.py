@@ -28,6 +28,7 @@ from krl.kernel.features import (
     split_by_target,
 )
 from krl.kernel.model import Kernel, NetworkConfig
+from krl.output import write_atomic
 
 CHECKPOINT_NAME = "checkpoint.pt"
 KERNEL_NAME = "kernel.npz"
@@ -408,9 +409,7 @@ def _json_safe(value: Any) -> Any:
 
 
 def _write_json(path: Path, value: Any) -> None:
-    temporary = path.with_name(f".{path.name}.tmp")
-    temporary.write_text(json.dumps(value, indent=2, sort_keys=True))
-    os.replace(temporary, path)
+    write_atomic(path, json.dumps(value, indent=2, sort_keys=True))
 
 
 __all__ = ["TrainConfig", "TrainResult", "prepare_data", "train_kernel"]

@@ -10,13 +10,13 @@ are detected by Optuna's heartbeat and retried.
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from krl.kernel.model import NetworkConfig
 from krl.kernel.train import TrainConfig, prepare_data, train_kernel
+from krl.output import write_atomic
 
 NETWORKS: dict[str, tuple[int, ...]] = {
     "2x128": (128, 128),
@@ -126,7 +126,5 @@ def tune(
         summary.update(
             best_value=study.best_value, best_params=study.best_params, best_trial=study.best_trial.number
         )
-        temporary = out / ".best.json.tmp"
-        temporary.write_text(json.dumps(summary, indent=2, sort_keys=True))
-        os.replace(temporary, out / "best.json")
+        write_atomic(out / "best.json", json.dumps(summary, indent=2, sort_keys=True))
     return summary
