@@ -93,11 +93,13 @@ def cmd_render(args: argparse.Namespace) -> int:
         points = np.array([*course.waypoints, *(s[:2] for s in course.starts)])
         low, high = points.min(axis=0), points.max(axis=0)
         centre = (*((low + high) / 2), float(sim.terrain.height(*((low + high) / 2))))
-        distance = args.distance or 0.8 * float(np.max(high - low)) + 1.5
-        view = CameraView(distance, args.azimuth, args.elevation if args.elevation else -35.0, lookat=centre)
+        distance = 0.8 * float(np.max(high - low)) + 1.5 if args.distance is None else args.distance
+        elevation = -35.0 if args.elevation is None else args.elevation
+        view = CameraView(distance, args.azimuth, elevation, lookat=centre)
     else:
         sim = _build_sim(args)
-        view = CameraView(args.distance or 3.0, args.azimuth, args.elevation or -25.0)
+        distance = 3.0 if args.distance is None else args.distance
+        view = CameraView(distance, args.azimuth, -25.0 if args.elevation is None else args.elevation)
     _settle(sim, args.settle)
     with FrameRenderer(sim.model, args.width, args.height, view) as renderer:
         image = renderer.render(sim.data)

@@ -17,8 +17,6 @@ from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 COURSE_FORMAT = 1
 """Version of the course file format."""
 
@@ -82,12 +80,7 @@ class Course:
         waypoints as red posts (for pictures; the dynamics do not change)."""
         from krl.sim.model import build_model
 
-        built = build_model(self.terrain, self.terrain_params, self.terrain_seed)
-        if not markers:
-            return built
-        x, y = np.array(self.waypoints).T
-        z = built.terrain.height(x, y)
-        points = [(float(a), float(b), float(c)) for a, b, c in zip(x, y, z, strict=True)]
+        points = self.waypoints if markers else ()
         return build_model(self.terrain, self.terrain_params, self.terrain_seed, markers=points)
 
 

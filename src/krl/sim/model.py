@@ -30,7 +30,7 @@ def build_model(
     terrain: str = "flat",
     terrain_params: Mapping[str, Any] | None = None,
     seed: int | None = 0,
-    markers: Sequence[tuple[float, float, float]] = (),
+    markers: Sequence[tuple[float, float]] = (),
 ) -> BuiltModel:
     """Compile the A1 on the named terrain.
 
@@ -38,15 +38,17 @@ def build_model(
         terrain: a name from :data:`krl.sim.terrains.TERRAIN_NAMES`.
         terrain_params: overrides of that terrain's parameters (``docs/terrains.md``).
         seed: seed of the terrain's random draws (height fields, noise); same seed, same model.
-        markers: world points [m] shown as red posts (e.g. a course's waypoints); they are sites, which
-            never touch anything, so the dynamics are those of the model without them.
+        markers: world (x, y) points [m] shown as red posts standing on the terrain (e.g. a course's
+            waypoints); they are sites, which never touch anything, so the dynamics are those of the
+            model without them.
 
     Raises:
         krl.sim.terrains.TerrainError: unknown terrain name or bad parameter.
     """
     spec = mujoco.MjSpec.from_file(str(MJCF_PATH))
     built_terrain = add_terrain(spec, terrain, terrain_params, np.random.default_rng(seed))
-    for index, (x, y, z) in enumerate(markers):
+    for index, (x, y) in enumerate(markers):
+        z = float(built_terrain.height(x, y))
         spec.worldbody.add_site(
             name=f"marker{index}",
             type=mujoco.mjtGeom.mjGEOM_CYLINDER,
