@@ -6,6 +6,7 @@ import pytest
 
 from krl.cli import main
 from krl.data import CollectConfig, collect_dataset
+from krl.kernel import studies
 from krl.kernel.studies import THESIS_SEEDS, plan_variants, summarise
 from krl.kernel.train import TrainConfig
 
@@ -42,6 +43,21 @@ def test_summary_mean_and_std():
     assert row["val_l1_mean"] == 2.0 and row["val_l1_std"] == pytest.approx(1.4142135, rel=1e-6)
 
 
+def test_walking_counts_each_rows_kernels(monkeypatch):
+    walks = {"a1": True, "a2": False, "b1": True, "b2": True}
+    asked = []
+
+    def fake_functional(path, targets):
+        asked.append((path, targets))
+        return walks[path]
+
+    monkeypatch.setattr(studies, "functional", fake_functional)
+    records = [{"k": path[0], "kernel": path} for path in walks]
+    rows = studies.add_walking([{"k": "a"}, {"k": "b"}], records, "k", targets=3)
+    assert [row["walking"] for row in rows] == [1, 2]
+    assert asked == [(path, 3) for path in walks]
+
+
 def test_data_size_study_writes_its_table_and_resumes(tmp_path, small_dataset, capsys):
     argv = [
         "kernel",
@@ -62,6 +78,8 @@ def test_data_size_study_writes_its_table_and_resumes(tmp_path, small_dataset, c
         "--quiet",
         "--threads",
         "1",
+        "--walk-targets",
+        "0",
         "--json",
     ]
     assert main(argv) == 0
@@ -69,6 +87,7 @@ def test_data_size_study_writes_its_table_and_resumes(tmp_path, small_dataset, c
     assert [row["targets"] for row in first["rows"]] == [2, 3]
     assert all(row["runs"] == 2 and row["val_l1_mean"] > 0 for row in first["rows"])
     assert first["rows"][0]["thesis_mean"] is None  # the thesis has no 2-target row
+    assert "walking" not in first["rows"][0]  # --walk-targets 0
     table = (tmp_path / "tables" / "data-size.md").read_text()
     assert "krl kernel study data-size" in table
     assert main(argv) == 0  # every run is finished: nothing is retrained, the numbers are the same

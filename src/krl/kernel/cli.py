@@ -174,6 +174,12 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seeds", default=",".join(map(str, THESIS_SEEDS)), help="training seeds")
     parser.add_argument("--sizes", default="10,25,50,100,200,400", help="data-size: training targets")
     parser.add_argument("--epochs", type=int, default=30)
+    parser.add_argument(
+        "--walk-targets",
+        type=int,
+        default=5,
+        help="data-size, stance: count the kernels that walk to this many random waypoints (0: skip)",
+    )
     parser.add_argument("--threads", type=int, help="PyTorch CPU threads")
     parser.add_argument("--quiet", action="store_true")
     parser.add_argument("--json", action="store_true")
@@ -214,10 +220,8 @@ def run_study(args: argparse.Namespace) -> int:
         runs, key = studies.plan_stance(stance_data, seeds, base), "stance_duration"
     records = studies.execute(runs, Path(args.runs) / args.study, progress=not args.quiet)
     rows = studies.thesis_columns(args.study, studies.summarise(records, key))
-    if args.study == "stance":
-        for row in rows:
-            first = next(r for r in records if r["stance_duration"] == row["stance_duration"])
-            row["functional"] = studies.functional(first["kernel"], seeds=(1, 2))
+    if args.study != "variants" and args.walk_targets > 0:
+        studies.add_walking(rows, records, key, args.walk_targets)
     command = "krl " + shlex.join(args.argv)
     path = studies.write_table(args.study, rows, records, Path(args.out), command)
     emit({"study": args.study, "table": str(path), "rows": rows}, args.json)

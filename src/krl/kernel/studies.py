@@ -6,8 +6,10 @@
 * ``data-size`` (Table 4.5): kernel-base trained on 10 … 400 of the training targets, one fixed
   validation set, each size with each seed.
 * ``stance`` (Table 4.3): kernel-base with the thesis's manually tuned settings on datasets collected
-  at stance durations 0.3, 0.25 and 0.2 s; validation L1 and whether the kernel then walks (reaches
-  every one of a few random waypoints without falling, for each of two seeds).
+  at stance durations 0.3, 0.25 and 0.2 s.
+
+Rows of ``data-size`` and ``stance`` also count how many of their kernels walk (reach every one of a
+few random waypoints without falling, for each of two waypoint seeds): the thesis's "functional".
 
 Each run trains in ``RUNS/<study>/<run>`` with :func:`krl.kernel.train.train_kernel`, so an interrupted
 study resumes where it stopped and finished runs are not redone. The tables (Markdown, CSV, JSON, the
@@ -133,7 +135,11 @@ def execute(runs: Sequence[StudyRun], runs_dir: Path, progress: bool = True) -> 
     return records
 
 
-def functional(kernel_path: str, seeds: Sequence[int], targets: int = 5) -> bool:
+WALK_SEEDS: tuple[int, ...] = (1, 2)
+"""Seeds of the random waypoints on which a study's kernels are asked to walk."""
+
+
+def functional(kernel_path: str, seeds: Sequence[int] = WALK_SEEDS, targets: int = 5) -> bool:
     """Whether the kernel walks: it reaches all ``targets`` random waypoints without falling, every seed."""
     import numpy as np
 
@@ -150,6 +156,17 @@ def functional(kernel_path: str, seeds: Sequence[int], targets: int = 5) -> bool
         if result.fell or result.targets_reached < targets:
             return False
     return True
+
+
+def add_walking(
+    rows: list[dict[str, Any]], records: Sequence[dict[str, Any]], key: str, targets: int
+) -> list[dict[str, Any]]:
+    """Add ``walking``: how many of a row's kernels (one per seed) are :func:`functional` with
+    ``targets`` waypoints (the thesis's "functional locomotion" column, counted over seeds)."""
+    for row in rows:
+        kernels = [r["kernel"] for r in records if r[key] == row[key]]
+        row["walking"] = sum(functional(path, targets=targets) for path in kernels)
+    return rows
 
 
 def summarise(records: Sequence[dict[str, Any]], key: str) -> list[dict[str, Any]]:
