@@ -247,10 +247,12 @@ def test_a_lost_part_is_collected_again(small, tmp_path):
     assert load_dataset(out).content_hash == load_dataset(small[0]).content_hash
 
 
-def test_ext_mode_heights_are_constant_per_target_and_in_range(tmp_path):
-    ds = load_dataset(
-        collect_dataset(tmp_path / "ext", small_config(mode="ext", targets=3, targets_per_episode=3)).path
-    )
+@pytest.mark.parametrize("which", ["one", "both"])
+def test_ext_mode_heights_are_constant_per_target_and_in_range(tmp_path, which):
+    config = small_config(mode="ext", targets=3, targets_per_episode=3, ext_heights=which)
+    ds = load_dataset(collect_dataset(tmp_path / "ext", config).path)
+    assert ds.settings["ext_heights"] == which
+    nominal = (config.expert.step_height, config.expert.ride_height)
     heights = []
     for target in np.unique(ds["target_index"]):
         rows = ds["target_index"] == target
@@ -258,9 +260,16 @@ def test_ext_mode_heights_are_constant_per_target_and_in_range(tmp_path):
         assert np.ptp(step) == 0 and np.ptp(ride) == 0
         assert STEP_HEIGHT_RANGE[0] <= step[0] <= STEP_HEIGHT_RANGE[1]
         assert RIDE_HEIGHT_RANGE[0] <= ride[0] <= RIDE_HEIGHT_RANGE[1]
+        at_nominal = (step[0] == np.float32(nominal[0])) + (ride[0] == np.float32(nominal[1]))
+        assert at_nominal == (1 if which == "one" else 0)
         heights.append((step[0], ride[0]))
     assert len(set(heights)) == 3
     assert ds.num_targets == 3
+
+
+def test_ext_heights_choice_is_checked():
+    with pytest.raises(ValueError, match="ext_heights must be one of one, both"):
+        CollectConfig(mode="ext", ext_heights="neither")
 
 
 def test_dyn2_starts_every_target_standing_at_the_spawn(tmp_path):

@@ -11,8 +11,12 @@ same directory resumes after the last finished episode. ``docs/data.md`` has the
 Modes:
 
 - ``base``: fixed expert settings (the kernel-base data).
-- ``ext``: before each target, step height ~ U(0.05, 0.18) m and ride height ~ U(0.18, 0.28) m, both drawn
-  and applied with :meth:`MPCExpert.set_heights` (kernel-ext).
+- ``ext``: before each target, one of the two heights is redrawn, step height ~ U(0.05, 0.18) m or ride
+  height ~ U(0.18, 0.28) m (each with probability 1/2), and the other is set to the expert's nominal
+  value; applied with :meth:`MPCExpert.set_heights` (kernel-ext). ``ext_heights="both"`` redraws both
+  every target instead (krl's first ext data), which also visits low-body/high-step combinations
+  where the swing apex comes within a few centimetres of the hips and the expert's steps turn erratic
+  (docs/kernel.md, "kernel-ext's loss").
 - ``dyn2``: a standing reset at the spawn before every target, which is drawn around the spawn
   (kernel-dyn2).
 """
@@ -61,6 +65,10 @@ from krl.timing import CONTROL_DT
 
 MODES: tuple[str, ...] = ("base", "ext", "dyn2")
 """Collection modes (see the module docstring)."""
+
+EXT_HEIGHTS: tuple[str, ...] = ("one", "both")
+"""``ext`` mode: redraw one of the two heights per target (the thesis's "step height or ride height"),
+or both."""
 
 DEFAULT_TARGET_DISTANCE: tuple[float, float] = (2.5, 3.5)
 """Distance of each target from the previous one (or from the spawn after a reset) ~ U(low, high) [m]:
@@ -116,10 +124,14 @@ class CollectConfig:
     """``ext`` mode: step height ~ U(range) [m] (thesis 4.2.6.5)."""
     ride_height_range: tuple[float, float] = RIDE_HEIGHT_RANGE
     """``ext`` mode: ride height ~ U(range) [m] (thesis 4.2.6.5)."""
+    ext_heights: str = "one"
+    """``ext`` mode: which heights each target redraws (one of :data:`EXT_HEIGHTS`)."""
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise ValueError(f"unknown collection mode {self.mode!r}; modes: {', '.join(MODES)}")
+        if self.ext_heights not in EXT_HEIGHTS:
+            raise ValueError(f"ext_heights must be one of {', '.join(EXT_HEIGHTS)}, got {self.ext_heights!r}")
         for name in ("targets", "targets_per_episode", "seed"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
@@ -172,6 +184,8 @@ class CollectConfig:
             "command": dataclasses.asdict(self.command),
             "control_dt": CONTROL_DT,
         }
+        if self.mode == "ext":
+            settings["ext_heights"] = self.ext_heights
         return json.loads(canonical_json(settings))  # tuples -> lists, numpy scalars -> numbers
 
 
@@ -290,6 +304,11 @@ def collect_episode(
         step_height = float(rng.uniform(*config.step_height_range))
         ride_height = float(rng.uniform(*config.ride_height_range))
         if config.mode == "ext":
+            if config.ext_heights == "one":
+                if rng.integers(2):
+                    step_height = config.expert.step_height
+                else:
+                    ride_height = config.expert.ride_height
             expert.set_heights(step_height=step_height, ride_height=ride_height)
         recorder.target_index = episode * config.targets_per_episode + k
         recorder.target_xy = target
@@ -652,6 +671,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="base: fixed settings; ext: random step/ride height per target; dyn2: reset before every target",
     )
     parser.add_argument(
+        "--ext-heights",
+        choices=EXT_HEIGHTS,
+        default="one",
+        help="ext: redraw one height per target (the other nominal) or both",
+    )
+    parser.add_argument(
         "--targets-per-episode", type=int, default=10, help="targets per part file (the unit of resumption)"
     )
     parser.add_argument(
@@ -675,6 +700,7 @@ def run(args: argparse.Namespace) -> int:
     config = CollectConfig(
         targets=args.targets,
         mode=args.mode,
+        ext_heights=args.ext_heights,
         targets_per_episode=args.targets_per_episode,
         target_time_limit=args.target_time_limit,
         seed=args.seed,
@@ -695,6 +721,7 @@ def run(args: argparse.Namespace) -> int:
 
 __all__ = [
     "DEFAULT_TARGET_DISTANCE",
+    "EXT_HEIGHTS",
     "MODES",
     "CollectConfig",
     "CollectSummary",

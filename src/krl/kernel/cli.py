@@ -269,7 +269,14 @@ def fresh_validation_data(kernel, targets: int, seed: int, directory: Path):
     mode = settings.get("mode", "base")
     if mode not in ("base", "ext", "dyn2"):
         mode = "base"
-    config = CollectConfig(targets=targets, mode=mode, seed=seed, expert=params, targets_per_episode=targets)
+    config = CollectConfig(
+        targets=targets,
+        mode=mode,
+        seed=seed,
+        expert=params,
+        targets_per_episode=targets,
+        ext_heights=settings.get("ext_heights", "both"),  # ext data made before the choice: both
+    )
     collect_dataset(directory, config)
     return load_dataset(directory)
 
