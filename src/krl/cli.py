@@ -17,12 +17,25 @@ class CliError(Exception):
 
 
 def emit(result: dict[str, Any], as_json: bool) -> None:
-    """Print a command's result: indented JSON, or one ``key: value`` line per entry."""
+    """Print a command's result: indented JSON, or one ``key: value`` line per entry (a nested mapping
+    indented under its key, a list of mappings one item per line)."""
     if as_json:
         print(json.dumps(result, indent=2))
     else:
-        for key, value in result.items():
-            print(f"{key}: {value}")
+        print("\n".join(_text_lines(result, "")))
+
+
+def _text_lines(result: dict[str, Any], indent: str) -> list[str]:
+    lines = []
+    for key, value in result.items():
+        if isinstance(value, dict):
+            lines += [f"{indent}{key}:", *_text_lines(value, indent + "  ")]
+        elif isinstance(value, list) and value and all(isinstance(item, dict) for item in value):
+            lines.append(f"{indent}{key}:")
+            lines += [f"{indent}  - " + ", ".join(f"{k}: {v}" for k, v in item.items()) for item in value]
+        else:
+            lines.append(f"{indent}{key}: {value}")
+    return lines
 
 
 def _parse_params(items: Sequence[str] | None) -> dict[str, Any]:

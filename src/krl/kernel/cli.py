@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import itertools
 import tempfile
 from importlib.resources import files
 from pathlib import Path
@@ -236,22 +237,88 @@ def add_eval_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data", help="score on this dataset instead of fresh expert data")
     parser.add_argument("--targets", type=int, default=3, help="targets of fresh validation data")
     parser.add_argument("--seed", type=int, default=12345, help="seed of the fresh validation data")
+    parser.add_argument(
+        "--validation",
+        action="store_true",
+        help="with --data: score only the validation targets of the kernel's own training split",
+    )
+    parser.add_argument(
+        "--breakdown",
+        action="store_true",
+        help="also the error of stance and swing legs, by time since the target started, and by swing "
+        "clearance (ride minus step height)",
+    )
     parser.add_argument("--json", action="store_true")
 
 
-def score(kernel, dataset) -> dict[str, Any]:
-    """Mean absolute error [m] of ``kernel`` on every row of ``dataset``, overall and per axis."""
-    from krl.kernel.features import features_from_columns, labels_from_columns
+TIME_BINS: tuple[float, ...] = (0.0, 0.5, 1.0, 2.0, np.inf)
+"""Edges [s] of ``--breakdown``'s bins of time since the walk to the current target started."""
+CLEARANCE_BINS: tuple[float, ...] = (-np.inf, 0.04, 0.06, 0.08, 0.10, np.inf)
+"""Edges [m] of ``--breakdown``'s bins of ride height minus step height (how far below the hips the
+swing apex stays)."""
 
-    columns = {name: dataset[name] for name in dataset.keys()}
+
+def score(kernel, dataset, validation_only: bool = False, breakdown: bool = False) -> dict[str, Any]:
+    """Mean absolute error [m] of ``kernel`` on the rows of ``dataset``, overall and per axis.
+
+    ``validation_only``: only the targets that the kernel's training run held out (the dataset must be
+    the one it was trained on). ``breakdown``: also the error by leg phase, by time since the target
+    started and by swing clearance; each bin reports its share of rows and its mean error.
+    """
+    from krl.kernel.features import features_from_columns, labels_from_columns, split_by_target
+
+    names = set(dataset.keys())
+    columns = {name: np.asarray(dataset[name]) for name in names}
+    if validation_only:
+        trained_on = kernel.metadata.get("dataset_hash")
+        if trained_on != dataset.content_hash:
+            raise ValueError(
+                f"--validation: the kernel was trained on dataset {str(trained_on)[:12]}, "
+                f"not on this one ({dataset.content_hash[:12]})"
+            )
+        config = kernel.metadata.get("config", {})
+        rows = split_by_target(
+            columns["target_index"], config.get("validation_fraction", 0.2), config.get("split_seed", 0)
+        )
+        columns = {name: column[rows] for name, column in columns.items()}
     features = features_from_columns(kernel.variant, columns)
     labels = labels_from_columns(kernel.variant, columns)
-    error = np.abs(kernel.predict(features) - labels).reshape(len(labels), -1, 3)
-    return {
+    n = len(columns["target_index"])
+    error = np.abs(kernel.predict(features) - labels).reshape(n, -1, 3)
+    result: dict[str, Any] = {
         "val_l1": float(error.mean()),
         "val_l1_xyz": [float(e) for e in error.mean(axis=(0, 1))],
-        "rows": int(dataset.num_rows),
-        "targets": int(dataset.num_targets),
+        "rows": n,
+        "targets": len(np.unique(columns["target_index"])),
+    }
+    if breakdown:
+        result["breakdown"] = error_breakdown(error, columns)
+    return result
+
+
+def error_breakdown(error: np.ndarray, columns: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Where the error is. ``error``: |prediction − label| [m], shape (N, 4, 3), rows in dataset order."""
+    stance = np.asarray(columns["stance"], dtype=bool)
+    target = columns["target_index"]
+    first = np.r_[True, target[1:] != target[:-1]]
+    started = np.maximum.accumulate(np.where(first, np.arange(len(target)), 0))
+    since_target = columns["time"] - columns["time"][started]
+    clearance = columns["ride_height"] - columns["step_height"]
+
+    def bins(values: np.ndarray, edges: tuple[float, ...], unit: str) -> list[dict[str, Any]]:
+        out = []
+        for low, high in itertools.pairwise(edges):
+            rows = (values >= low) & (values < high)
+            if rows.any():
+                label = f"[{low:g}, {high:g}) {unit}"
+                out.append({"bin": label, "rows": float(rows.mean()), "l1": float(error[rows].mean())})
+        return out
+
+    return {
+        "stance_l1": float(error[stance].mean()) if stance.any() else None,
+        "swing_l1": float(error[~stance].mean()) if (~stance).any() else None,
+        "by_time_since_target": bins(since_target, TIME_BINS, "s"),
+        "by_swing_clearance": bins(clearance, CLEARANCE_BINS, "m"),
     }
 
 
@@ -291,13 +358,16 @@ def run_eval(args: argparse.Namespace) -> int:
 
     kernel = _load(args.model)
     if args.data:
-        result = score(kernel, load_dataset(args.data))
-        source = args.data
+        result = score(kernel, load_dataset(args.data), args.validation, args.breakdown)
+        source = args.data + (" (validation targets)" if args.validation else "")
     else:
+        if args.validation:
+            raise ValueError("--validation needs --data (the kernel's training dataset)")
         if args.targets < 1:
             raise ValueError(f"--targets must be >= 1, got {args.targets}")
         with tempfile.TemporaryDirectory(prefix="krl-eval-") as directory:
-            result = score(kernel, fresh_validation_data(kernel, args.targets, args.seed, Path(directory)))
+            fresh = fresh_validation_data(kernel, args.targets, args.seed, Path(directory))
+            result = score(kernel, fresh, breakdown=args.breakdown)
         source = f"fresh expert data ({args.targets} targets, seed {args.seed})"
     emit(
         {
