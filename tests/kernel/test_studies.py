@@ -34,6 +34,13 @@ def test_variants_plan_uses_each_variants_dataset():
     assert THESIS_SEEDS == (150, 215, 345, 556)
 
 
+def test_variants_plan_can_pick_variants(capsys):
+    runs = plan_variants({"base": "B", "ext": "E"}, seeds=(1,), base=TrainConfig(), variants=("ind", "ext"))
+    assert [r.name for r in runs] == ["ind-seed1", "ext-seed1"]
+    assert main(["kernel", "study", "variants", "--data-base", "B", "--variants", "base,big"]) == 2
+    assert "unknown variant(s) big" in capsys.readouterr().err
+
+
 def test_summary_mean_and_std():
     records = [
         {"k": 1, "val_l1": 1.0, "epochs_run": 2, "train_seconds": 1.0},
@@ -93,6 +100,16 @@ def test_data_size_study_writes_its_table_and_resumes(tmp_path, small_dataset, c
     assert main(argv) == 0  # every run is finished: nothing is retrained, the numbers are the same
     again = json.loads(capsys.readouterr().out)
     assert again["rows"] == first["rows"]
+    sizes = argv.index("--sizes") + 1
+    partial = [*argv[:sizes], "2,3,4", *argv[sizes + 1 :], "--finished-only"]
+    assert main(partial) == 0  # the 4-target runs were never trained: left out and listed
+    table = json.loads(capsys.readouterr().out)
+    assert table["rows"] == first["rows"] and table["unfinished"] == ["targets4-seed1", "targets4-seed2"]
+    assert (
+        "Not finished when this table was written: targets4-seed1"
+        in (tmp_path / "tables" / "data-size.md").read_text()
+    )
+    assert not (tmp_path / "runs" / "data-size" / "targets4-seed1").exists()
 
 
 def test_study_needs_its_data(capsys):

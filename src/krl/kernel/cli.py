@@ -160,7 +160,7 @@ def _ints(text: str, option: str) -> list[int]:
 
 
 def add_study_arguments(parser: argparse.ArgumentParser) -> None:
-    from krl.kernel.studies import STUDIES, THESIS_SEEDS
+    from krl.kernel.studies import STUDIES, THESIS_SEEDS, VARIANT_DATA
 
     parser.add_argument("study", choices=STUDIES, help="variants (Table 4.4), data-size (4.5), stance (4.3)")
     parser.add_argument("--out", default="docs/results/kernel", help="where the tables go")
@@ -173,6 +173,14 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
         "--data-stance", action="append", metavar="TAU=DIR", help="stance: a dataset per stance duration"
     )
     parser.add_argument("--seeds", default=",".join(map(str, THESIS_SEEDS)), help="training seeds")
+    parser.add_argument(
+        "--variants", default=",".join(VARIANT_DATA), help="variants: which variants to train (comma list)"
+    )
+    parser.add_argument(
+        "--finished-only",
+        action="store_true",
+        help="train nothing: write the table from the runs that have finished, listing the others",
+    )
     parser.add_argument("--sizes", default="10,25,50,100,200,400", help="data-size: training targets")
     parser.add_argument("--epochs", type=int, default=30)
     parser.add_argument(
@@ -201,7 +209,14 @@ def run_study(args: argparse.Namespace) -> int:
         }
         if not data:
             raise ValueError("variants needs at least one of --data-base, --data-ext, --data-dyn2")
-        runs, key = studies.plan_variants(data, seeds, base), "variant"
+        variants = [v for v in args.variants.split(",") if v]
+        unknown = sorted(set(variants) - set(studies.VARIANT_DATA))
+        if unknown or not variants:
+            raise ValueError(
+                f"--variants: unknown variant(s) {', '.join(unknown) or '(none given)'}; "
+                f"known: {', '.join(studies.VARIANT_DATA)}"
+            )
+        runs, key = studies.plan_variants(data, seeds, base, variants), "variant"
     elif args.study == "data-size":
         if not args.data:
             raise ValueError("data-size needs --data (a base dataset)")
@@ -219,13 +234,18 @@ def run_study(args: argparse.Namespace) -> int:
         if not stance_data:
             raise ValueError("stance needs --data-stance TAU=DIR (one per stance duration)")
         runs, key = studies.plan_stance(stance_data, seeds, base), "stance_duration"
-    records = studies.execute(runs, Path(args.runs) / args.study, progress=not args.quiet)
+    if args.finished_only:
+        records, missing = studies.finished(runs, Path(args.runs) / args.study)
+        if not records:
+            raise ValueError(f"no run of this study has finished in {Path(args.runs) / args.study}")
+    else:
+        records, missing = studies.execute(runs, Path(args.runs) / args.study, progress=not args.quiet), []
     rows = studies.thesis_columns(args.study, studies.summarise(records, key))
     if args.study != "variants" and args.walk_targets > 0:
         studies.add_walking(rows, records, key, args.walk_targets)
     command = "krl " + shlex.join(args.argv)
-    path = studies.write_table(args.study, rows, records, Path(args.out), command)
-    emit({"study": args.study, "table": str(path), "rows": rows}, args.json)
+    path = studies.write_table(args.study, rows, records, Path(args.out), command, missing)
+    emit({"study": args.study, "table": str(path), "rows": rows, "unfinished": missing}, args.json)
     return 0
 
 

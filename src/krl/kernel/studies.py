@@ -65,13 +65,21 @@ class StudyRun:
     """The table row this run belongs to (e.g. {"variant": "ext"})."""
 
 
-def plan_variants(data: dict[str, str], seeds: Sequence[int], base: TrainConfig) -> list[StudyRun]:
-    """Runs of Table 4.4. ``data`` maps ``base``/``ext``/``dyn2`` to dataset directories; a variant
-    whose dataset is not given is left out."""
-    sources = {"base": "base", "ind": "base", "dyn1": "base", "ext": "ext", "dyn2": "dyn2"}
+VARIANT_DATA: dict[str, str] = {"base": "base", "ind": "base", "dyn1": "base", "ext": "ext", "dyn2": "dyn2"}
+"""The dataset each variant of Table 4.4 trains on."""
+
+
+def plan_variants(
+    data: dict[str, str],
+    seeds: Sequence[int],
+    base: TrainConfig,
+    variants: Sequence[str] = tuple(VARIANT_DATA),
+) -> list[StudyRun]:
+    """Runs of Table 4.4 for ``variants``. ``data`` maps ``base``/``ext``/``dyn2`` to dataset
+    directories; a variant whose dataset is not given is left out."""
     runs = []
-    for variant, source in sources.items():
-        if source not in data:
+    for variant, source in VARIANT_DATA.items():
+        if source not in data or variant not in variants:
             continue
         for seed in seeds:
             config = replace(base, variant=variant, seed=seed)
@@ -121,18 +129,45 @@ def execute(runs: Sequence[StudyRun], runs_dir: Path, progress: bool = True) -> 
         result = train_kernel(
             datasets[run.data], run.config, runs_dir / run.name, progress=progress, tensorboard=False
         )
-        records.append(
-            {
-                **run.row,
-                "run": run.name,
-                "seed": run.config.seed,
-                "val_l1": result.val_l1,
-                "epochs_run": result.epochs_run,
-                "train_seconds": result.train_seconds,
-                "kernel": str(result.kernel_path),
-            }
-        )
+        records.append(_record(run, result.kernel_path, result.kernel.metadata))
     return records
+
+
+def finished(runs: Sequence[StudyRun], runs_dir: Path) -> tuple[list[dict[str, Any]], list[str]]:
+    """Records of the runs that have finished training (a kernel written by a run with these settings on
+    this data), without training anything; and the names of the others."""
+    from krl.data.schema import read_manifest
+    from krl.kernel.model import load_kernel
+    from krl.kernel.train import CONFIG_NAME, KERNEL_NAME, run_hash
+
+    hashes: dict[str, str] = {}
+    records, missing = [], []
+    for run in runs:
+        if run.data not in hashes:
+            hashes[run.data] = read_manifest(Path(run.data))["content_hash"]
+        directory = runs_dir / run.name
+        try:
+            saved = json.loads((directory / CONFIG_NAME).read_text())
+        except (OSError, ValueError):
+            saved = {}
+        kernel_path = directory / KERNEL_NAME
+        if saved.get("run_hash") != run_hash(run.config, hashes[run.data]) or not kernel_path.exists():
+            missing.append(run.name)
+            continue
+        records.append(_record(run, kernel_path, load_kernel(kernel_path).metadata))
+    return records, missing
+
+
+def _record(run: StudyRun, kernel_path: Path, metadata: dict[str, Any]) -> dict[str, Any]:
+    return {
+        **run.row,
+        "run": run.name,
+        "seed": run.config.seed,
+        "val_l1": metadata["val_l1"],
+        "epochs_run": metadata["epochs_run"],
+        "train_seconds": metadata["train_seconds"],
+        "kernel": str(kernel_path),
+    }
 
 
 WALK_SEEDS: tuple[int, ...] = (1, 2)
@@ -191,9 +226,15 @@ def summarise(records: Sequence[dict[str, Any]], key: str) -> list[dict[str, Any
 
 
 def write_table(
-    study: str, rows: list[dict[str, Any]], records: list[dict[str, Any]], out: Path, command: str
+    study: str,
+    rows: list[dict[str, Any]],
+    records: list[dict[str, Any]],
+    out: Path,
+    command: str,
+    unfinished: Sequence[str] = (),
 ) -> Path:
-    """Write ``OUT/<study>.md``, ``.csv`` and ``.json``; returns the Markdown path."""
+    """Write ``OUT/<study>.md``, ``.csv`` and ``.json``; returns the Markdown path. ``unfinished``: the
+    planned runs left out because they had not finished (``--finished-only``)."""
     columns = list(rows[0])
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=columns)
@@ -201,11 +242,16 @@ def write_table(
     writer.writerows(rows)
     write_atomic(out / f"{study}.csv", buffer.getvalue())
     write_atomic(
-        out / f"{study}.json", json.dumps({"rows": rows, "runs": records, "command": command}, indent=2)
+        out / f"{study}.json",
+        json.dumps(
+            {"rows": rows, "runs": records, "unfinished": list(unfinished), "command": command}, indent=2
+        ),
     )
     header = "| " + " | ".join(columns) + " |\n| " + " | ".join("---" for _ in columns) + " |\n"
     lines = ["| " + " | ".join(_format(row[c]) for c in columns) + " |" for row in rows]
     text = f"# Kernel study: {study}\n\nMade by:\n\n    {command}\n\n" + header + "\n".join(lines) + "\n"
+    if unfinished:
+        text += f"\nNot finished when this table was written: {', '.join(unfinished)}.\n"
     path = out / f"{study}.md"
     write_atomic(path, text)
     return path

@@ -189,7 +189,8 @@ def _export_weights(net, config: TrainConfig) -> list[np.ndarray]:
     return weights
 
 
-def _config_hash(config: TrainConfig, dataset_hash: str) -> str:
+def run_hash(config: TrainConfig, dataset_hash: str) -> str:
+    """Identity of a training run: its settings and its data (stored in ``config.json``)."""
     text = json.dumps({"config": config.to_json(), "dataset": dataset_hash}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -229,19 +230,19 @@ def train_kernel(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     dataset_hash = dataset.content_hash
-    run_hash = _config_hash(config, dataset_hash)
+    this_run = run_hash(config, dataset_hash)
     config_path = out / CONFIG_NAME
     checkpoint_path = out / CHECKPOINT_NAME
     if config_path.exists():
         saved = json.loads(config_path.read_text())
-        if saved.get("run_hash") != run_hash:
+        if saved.get("run_hash") != this_run:
             raise ValueError(
                 f"{out} holds a training run with other settings or data (run {saved.get('run_hash')}, "
-                f"this one {run_hash}); choose another --out"
+                f"this one {this_run}); choose another --out"
             )
     else:
         _write_json(
-            config_path, {"run_hash": run_hash, "dataset_hash": dataset_hash, "config": config.to_json()}
+            config_path, {"run_hash": this_run, "dataset_hash": dataset_hash, "config": config.to_json()}
         )
 
     if config.threads:
@@ -287,7 +288,7 @@ def train_kernel(
             raise ValueError(
                 f"checkpoint {checkpoint_path} is corrupt ({error}); delete it to start over"
             ) from None
-        if checkpoint.get("run_hash") != run_hash:
+        if checkpoint.get("run_hash") != this_run:
             raise ValueError(f"checkpoint {checkpoint_path} belongs to another run; choose another --out")
         net.load_state_dict(checkpoint["net"])
         optimizer.load_state_dict(checkpoint["optimizer"])
@@ -351,7 +352,7 @@ def train_kernel(
                 writer.flush()
             _atomic_torch_save(
                 {
-                    "run_hash": run_hash,
+                    "run_hash": this_run,
                     "net": net.state_dict(),
                     "optimizer": optimizer.state_dict(),
                     "scheduler": scheduler.state_dict(),
@@ -412,4 +413,4 @@ def _write_json(path: Path, value: Any) -> None:
     write_atomic(path, json.dumps(value, indent=2, sort_keys=True))
 
 
-__all__ = ["TrainConfig", "TrainResult", "prepare_data", "train_kernel"]
+__all__ = ["TrainConfig", "TrainResult", "prepare_data", "run_hash", "train_kernel"]
