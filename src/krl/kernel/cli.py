@@ -414,6 +414,9 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", default="base", help="shipped kernel name (base, ext) or a kernel file")
     parser.add_argument("--step-height", type=float, help="kernel-ext: step height [m], 0.05-0.18")
     parser.add_argument("--ride-height", type=float, help="kernel-ext: ride height [m], 0.18-0.28")
+    parser.add_argument(
+        "--gait", help="gait of Table 4.1 fed to the kernel (default: its training data's; Fig. 4.12: walk)"
+    )
 
 
 def run_run(args: argparse.Namespace) -> int:
@@ -421,10 +424,13 @@ def run_run(args: argparse.Namespace) -> int:
     from krl.kernel.controller import KernelController
 
     kernel = _load(args.model)
-    controller = KernelController(kernel, step_height=args.step_height, ride_height=args.ride_height)
+    controller = KernelController(
+        kernel, gait=args.gait, step_height=args.step_height, ride_height=args.ride_height
+    )
     summary = run_controller(args, controller)
     summary["model"] = str(resolve_model(args.model))
     summary["variant"] = kernel.variant
+    summary["gait"] = controller.gait_name
     emit(summary, args.json)
     return 0
 

@@ -49,6 +49,8 @@ class KernelController:
         self.kernel = kernel
         gait = gait or _training_setting(kernel, "gait", "trot")
         stance_duration = stance_duration or _training_setting(kernel, "stance_duration", 0.2)
+        self.gait_name: str = gait
+        """Name of the gait fed to the kernel (Table 4.1)."""
         self.gait = GaitGenerator(gait_params(gait, stance_duration=stance_duration))
         self.step_height = 0.0
         self.ride_height = 0.0
