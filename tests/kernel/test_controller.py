@@ -94,7 +94,9 @@ def test_kernel_run_and_errors(tmp_path, capsys):
     assert main(["kernel", "run", "--command", "0.3,0,0", "--duration", "3", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
     assert not result["fell"] and result["variant"] == "base" and result["gait"] == "trot"
-    assert main(["kernel", "run", "--gait", "walk", "--command", "0.2,0,0", "--duration", "1", "--json"]) == 0
+    assert (
+        main(["kernel", "run", "--gait", "walk", "--command", "0.2,0,0", "--duration", "2.5", "--json"]) == 0
+    )
     assert json.loads(capsys.readouterr().out)["gait"] == "walk"
     assert main(["kernel", "run", "--gait", "gallop"]) == 2
     assert "unknown gait 'gallop'" in capsys.readouterr().err
