@@ -182,7 +182,12 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
         help="train nothing: write the table from the runs that have finished, listing the others",
     )
     parser.add_argument("--sizes", default="10,25,50,100,200,400", help="data-size: training targets")
-    parser.add_argument("--epochs", type=int, default=30)
+    parser.add_argument(
+        "--epochs",
+        type=int,
+        default=10,
+        help="epochs per run (default 10, the thesis's training length for kernel comparisons)",
+    )
     parser.add_argument(
         "--walk-targets",
         type=int,
