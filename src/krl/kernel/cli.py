@@ -120,7 +120,13 @@ def add_tune_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--variant", default="base")
     parser.add_argument("--storage", help="Optuna storage URL (default: sqlite:///OUT/study.db)")
     parser.add_argument("--study-name", default="kernel")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the sampler and of the data split")
+    parser.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="seed of the sampler and of the trials' training (the data split is fixed); "
+        "give each process of a shared study its own",
+    )
     parser.add_argument("--threads", type=int, help="PyTorch CPU threads")
     parser.add_argument("--quiet", action="store_true")
     parser.add_argument("--json", action="store_true")
