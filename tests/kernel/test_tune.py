@@ -50,3 +50,7 @@ def test_tuning_persists_and_resumes(tmp_path, monkeypatch, synthetic_dataset):
     best = json.loads((tmp_path / "best.json").read_text())
     assert best["best_value"] == second["best_value"] > 0
     assert (tmp_path / "trials" / "0002" / "kernel.npz").exists()
+    rows = (tmp_path / "trials.csv").read_text().splitlines()
+    assert rows[0].startswith("number,state,val_l1,seconds,") and "learning_rate" in rows[0]
+    assert len(rows) == 4 and all(",COMPLETE," in row for row in rows[1:])
+    assert min(float(row.split(",")[2]) for row in rows[1:]) == best["best_value"]

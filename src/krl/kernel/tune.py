@@ -9,6 +9,8 @@ are detected by Optuna's heartbeat and retried.
 
 from __future__ import annotations
 
+import csv
+import io
 import json
 from dataclasses import replace
 from pathlib import Path
@@ -47,6 +49,22 @@ def suggest_config(trial, base: TrainConfig) -> TrainConfig:
     )
 
 
+def trials_csv(trials) -> str:
+    """One row per Optuna trial: number, state, value (final validation L1 [m]), duration [s] and the
+    sampled parameters (full precision: learning rates span three decades)."""
+    names = sorted({name for trial in trials for name in trial.params})
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["number", "state", "val_l1", "seconds", *names])
+    for trial in trials:
+        seconds = trial.duration.total_seconds() if trial.duration is not None else ""
+        value = "" if trial.value is None else trial.value
+        writer.writerow(
+            [trial.number, trial.state.name, value, seconds, *(trial.params.get(n, "") for n in names)]
+        )
+    return buffer.getvalue()
+
+
 def _storage(url: str):
     import optuna
     from optuna.storages import RDBStorage, RetryHeartbeatStaleTrialCallback
@@ -74,7 +92,8 @@ def tune(
     """Run ``trials`` more trials of the study (creating or resuming it); return the best so far.
 
     Each trial trains in ``out_dir/trials/<number>`` (its checkpoint lets a retried trial resume).
-    The best trial's parameters are written to ``out_dir/best.json``.
+    The best trial's parameters are written to ``out_dir/best.json`` and every trial of the study so
+    far (all processes') to ``out_dir/trials.csv``.
     """
     import optuna
 
@@ -115,6 +134,7 @@ def tune(
         return result.history[-1]["val_l1"]
 
     study.optimize(objective, n_trials=trials, gc_after_trial=True)
+    write_atomic(out / "trials.csv", trials_csv(study.trials))
     completed = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
     summary: dict[str, Any] = {
         "study": study_name,
