@@ -28,11 +28,16 @@ HOLD_SETTLE: float = 1.0
 """Time after the ramp before velocities count as steady [s]."""
 
 
+TARGET_DISTANCE: tuple[float, float] = (2.5, 3.5)
+"""Distance of each random waypoint from the previous one ~ U(low, high) [m]: the thesis's data
+collection's "minimum distance of 2.5 m"; the upper end is ours."""
+
+
 def random_targets(
     rng: np.random.Generator,
     count: int,
     start_xy: tuple[float, float] = (0.0, 0.0),
-    distance: tuple[float, float] = (2.5, 3.5),
+    distance: tuple[float, float] = TARGET_DISTANCE,
 ) -> np.ndarray:
     """Consecutive waypoints, each at a distance ~ U(distance) [m] in a direction ~ U(-π, π) from the last.
 

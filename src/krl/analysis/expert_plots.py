@@ -39,8 +39,9 @@ from typing import Any
 
 import numpy as np
 
+from krl.control.expert import NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT
 from krl.output import FIG_DPI, csv_bytes, figure_bytes, json_value, write_atomic
-from krl.runner import HOLD_RAMP, HOLD_SETTLE, TARGET_TIME_LIMIT
+from krl.runner import HOLD_RAMP, HOLD_SETTLE, TARGET_DISTANCE, TARGET_TIME_LIMIT
 from krl.timing import CONTROL_DT
 
 __all__ = [
@@ -84,16 +85,10 @@ RIDE_HEIGHTS: tuple[float, ...] = (0.18, 0.21, 0.25, 0.28)
 """Ride heights of the Fig. A.2 sweep [m] (the expert's range is 0.18-0.28 m)."""
 STEP_HEIGHTS: tuple[float, ...] = (0.05, 0.09, 0.13, 0.18)
 """Step heights of the Fig. A.3 sweep [m] (the expert's range is 0.05-0.18 m)."""
-NOMINAL_RIDE_HEIGHT: float = 0.25
-"""Ride height wherever it is not swept [m] (``ExpertParams``' default)."""
-NOMINAL_STEP_HEIGHT: float = 0.08
-"""Step height wherever it is not swept [m] (``ExpertParams``' default)."""
 
 DEFAULT_TARGETS: int = 10
 """Random waypoints per CoM condition (about 95 s of walking)."""
 QUICK_TARGETS: int = 1
-TARGET_DISTANCE: tuple[float, float] = (2.5, 3.5)
-"""Waypoint spacing [m] (the thesis's data collection: at least 2.5 m)."""
 QUICK_TARGET_DISTANCE: tuple[float, float] = (1.8, 2.0)
 
 DEFAULT_DURATION: float = 8.0

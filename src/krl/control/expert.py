@@ -33,6 +33,12 @@ STEP_HEIGHT_RANGE: tuple[float, float] = (0.05, 0.18)
 RIDE_HEIGHT_RANGE: tuple[float, float] = (0.18, 0.28)
 """Allowed ride heights [m] (thesis 4.2.6.5)."""
 
+NOMINAL_STEP_HEIGHT: float = 0.08
+"""The expert's default step height [m] (kept wherever a height is not varied)."""
+
+NOMINAL_RIDE_HEIGHT: float = 0.25
+"""The expert's default ride height [m] (kept wherever a height is not varied)."""
+
 
 @dataclass(frozen=True)
 class ExpertParams:
@@ -42,9 +48,9 @@ class ExpertParams:
     """Gait name from Table 4.1 (its initial phases and swing ratio)."""
     stance_duration: float = 0.2
     """τ_stance [s]; 0.2 s gives the steady expert the kernel learns from (thesis Table 4.3)."""
-    step_height: float = 0.08
+    step_height: float = NOMINAL_STEP_HEIGHT
     """Swing apex above the default foot height [m], in STEP_HEIGHT_RANGE."""
-    ride_height: float = 0.25
+    ride_height: float = NOMINAL_RIDE_HEIGHT
     """Desired base-origin height above the ground [m], in RIDE_HEIGHT_RANGE."""
     raibert_gain: float = 0.03
     """Raibert velocity-feedback gain k of the landing point [s]."""

@@ -10,7 +10,6 @@
 """
 
 from krl.data.collect import (
-    DEFAULT_TARGET_DISTANCE,
     MODES,
     CollectConfig,
     CollectSummary,
@@ -31,7 +30,6 @@ from krl.data.schema import (
 )
 
 __all__ = [
-    "DEFAULT_TARGET_DISTANCE",
     "FIELDS",
     "FIELD_NAMES",
     "MODES",

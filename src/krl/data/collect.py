@@ -59,7 +59,7 @@ from krl.data.schema import (
     read_manifest,
 )
 from krl.progress import progress_bar
-from krl.runner import TARGET_TIME_LIMIT, Runner, StepRecord, random_targets
+from krl.runner import TARGET_DISTANCE, TARGET_TIME_LIMIT, Runner, StepRecord, random_targets
 from krl.sim.robot import SimulationUnstableError
 from krl.timing import CONTROL_DT
 
@@ -70,9 +70,6 @@ EXT_HEIGHTS: tuple[str, ...] = ("one", "both")
 """``ext`` mode: redraw one of the two heights per target (the thesis's "step height or ride height"),
 or both."""
 
-DEFAULT_TARGET_DISTANCE: tuple[float, float] = (2.5, 3.5)
-"""Distance of each target from the previous one (or from the spawn after a reset) ~ U(low, high) [m]:
-the thesis's "minimum distance of 2.5 m"; the upper end is ours."""
 
 LOCK_NAME: str = ".lock"
 """Lock file of a dataset directory while a collection writes it (holds the writer's pid)."""
@@ -118,7 +115,7 @@ class CollectConfig:
     """Terrain parameter overrides."""
     command: CommandParams = field(default_factory=CommandParams)
     """Command generator parameters (Algorithm 2)."""
-    target_distance: tuple[float, float] = DEFAULT_TARGET_DISTANCE
+    target_distance: tuple[float, float] = TARGET_DISTANCE
     """Target distance range (low, high) [m]; tests use short distances."""
     step_height_range: tuple[float, float] = STEP_HEIGHT_RANGE
     """``ext`` mode: step height ~ U(range) [m] (thesis 4.2.6.5)."""
@@ -693,7 +690,7 @@ def run(args: argparse.Namespace) -> int:
     """``krl collect``: returns the exit status."""
     from krl.cli import _parse_params, _parse_vector, expert_params_from_args
 
-    distance = DEFAULT_TARGET_DISTANCE
+    distance = TARGET_DISTANCE
     if args.target_distance:
         low, high = _parse_vector(args.target_distance, 2, "--target-distance")
         distance = (low, high)
@@ -720,7 +717,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 __all__ = [
-    "DEFAULT_TARGET_DISTANCE",
     "EXT_HEIGHTS",
     "MODES",
     "CollectConfig",

@@ -29,6 +29,8 @@ def _magnitudes(text: str) -> tuple[float, ...]:
 
 
 def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
+    from krl.kernel.studies import THESIS_SEEDS
+
     parser.add_argument(
         "--controller",
         action="append",
@@ -51,7 +53,7 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--push-seed", type=int, default=0, help="seed of the push sweep's random pushes")
     parser.add_argument(
         "--seeds",
-        default="150,215,345,556",
+        default=",".join(map(str, THESIS_SEEDS)),
         help="run seeds, for controllers that depend on a seed (the agent)",
     )
     parser.add_argument(

@@ -17,7 +17,7 @@ import numpy as np
 
 from krl.control.mpc import MPCError
 from krl.reward import EVALUATION_REWARD, RewardParams, reward_terms
-from krl.runner import Runner, StepRecord
+from krl.runner import TARGET_TIME_LIMIT, Runner, StepRecord
 from krl.sim.robot import SimulationUnstableError
 
 RUN_METRICS: tuple[str, ...] = (
@@ -174,7 +174,7 @@ class PushSweep:
     """The waypoint, world (x, y) [m]; the robot starts at the origin facing +x."""
     window: tuple[float, float] = (2.0, 5.0)
     """The push starts at a time ~ U(window) [s], while the robot walks."""
-    time_limit: float = 40.0
+    time_limit: float = TARGET_TIME_LIMIT
     """Time allowed to reach the waypoint [s]."""
     d_min: float = 0.5
     """Waypoint threshold [m]."""

@@ -297,9 +297,9 @@ def score(kernel, dataset, validation_only: bool = False, breakdown: bool = Fals
     started and by swing clearance; each bin reports its share of rows and its mean error.
     """
     from krl.kernel.features import features_from_columns, labels_from_columns, split_by_target
+    from krl.kernel.train import TrainConfig
 
-    names = set(dataset.keys())
-    columns = {name: np.asarray(dataset[name]) for name in names}
+    columns = {name: np.asarray(dataset[name]) for name in dataset.keys()}
     if validation_only:
         trained_on = kernel.metadata.get("dataset_hash")
         if trained_on != dataset.content_hash:
@@ -307,10 +307,8 @@ def score(kernel, dataset, validation_only: bool = False, breakdown: bool = Fals
                 f"--validation: the kernel was trained on dataset {str(trained_on)[:12]}, "
                 f"not on this one ({dataset.content_hash[:12]})"
             )
-        config = kernel.metadata.get("config", {})
-        rows = split_by_target(
-            columns["target_index"], config.get("validation_fraction", 0.2), config.get("split_seed", 0)
-        )
+        config = TrainConfig.from_json(kernel.metadata["config"])
+        rows = split_by_target(columns["target_index"], config.validation_fraction, config.split_seed)
         columns = {name: column[rows] for name, column in columns.items()}
     features = features_from_columns(kernel.variant, columns)
     labels = labels_from_columns(kernel.variant, columns)

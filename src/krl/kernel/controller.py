@@ -12,7 +12,12 @@ from collections import deque
 
 import numpy as np
 
-from krl.control.expert import RIDE_HEIGHT_RANGE, STEP_HEIGHT_RANGE
+from krl.control.expert import (
+    NOMINAL_RIDE_HEIGHT,
+    NOMINAL_STEP_HEIGHT,
+    RIDE_HEIGHT_RANGE,
+    STEP_HEIGHT_RANGE,
+)
 from krl.control.gait import GaitGenerator, gait_params
 from krl.control.kinematics import inverse_kinematics
 from krl.control.types import JointCommand
@@ -35,7 +40,7 @@ class KernelController:
         gait: gait name; default: the gait of the kernel's training data.
         stance_duration: τ_stance [s]; default: that of the training data.
         step_height, ride_height: kernel-ext's height inputs [m] (ignored by other variants);
-            default: the training data's fixed settings (or the middle of the ranges for ext data).
+            default: the expert settings of the training data (for ext data, the nominal heights).
     """
 
     def __init__(
@@ -54,10 +59,11 @@ class KernelController:
         self.gait = GaitGenerator(gait_params(gait, stance_duration=stance_duration))
         self.step_height = 0.0
         self.ride_height = 0.0
-        self.set_heights(
-            step_height if step_height is not None else _training_setting(kernel, "step_height", 0.08),
-            ride_height if ride_height is not None else _training_setting(kernel, "ride_height", 0.25),
-        )
+        if step_height is None:
+            step_height = _training_setting(kernel, "step_height", NOMINAL_STEP_HEIGHT)
+        if ride_height is None:
+            ride_height = _training_setting(kernel, "ride_height", NOMINAL_RIDE_HEIGHT)
+        self.set_heights(step_height, ride_height)
         self._history: deque[dict[str, np.ndarray]] = deque(maxlen=HISTORY)
         self.last_targets: np.ndarray | None = None
         """Foot targets of the last step, base frame [m]. Shape: (4, 3)."""

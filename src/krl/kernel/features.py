@@ -19,7 +19,6 @@ realised positions after the step ``foot_pos_next`` for legs in stance. Shapes: 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -68,22 +67,6 @@ def input_names(variant: str) -> list[str]:
 def output_size(variant: str) -> int:
     """Number of outputs: 3 for ``ind`` (one foot), 12 otherwise."""
     return 3 if check_variant(variant) == "ind" else 3 * NUM_LEGS
-
-
-@dataclass(frozen=True)
-class KernelInputs:
-    """One control step's kernel inputs, as the controller has them (not batched)."""
-
-    command: np.ndarray
-    """(vx, vy, wz) [m/s, m/s, rad/s]. Shape: (3,)."""
-    normalised_phase: np.ndarray
-    """|φ| of the four legs (Eq. 4.6). Shape: (4,)."""
-    sine_phase: np.ndarray
-    """sin(|φ|π). Shape: (4,)."""
-    step_height: float = 0.08
-    ride_height: float = 0.25
-    dynamics: np.ndarray | None = None
-    """The dyn variants' state features in ``_DYNAMIC_FIELDS`` order. Shape: (36,)."""
 
 
 def features_from_columns(variant: str, columns: Mapping[str, np.ndarray]) -> np.ndarray:

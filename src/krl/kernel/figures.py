@@ -42,9 +42,10 @@ from krl.analysis.expert_plots import (
     fit_line,
     print_json_summary,
 )
+from krl.control.expert import NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT
 from krl.output import FIG_DPI, csv_bytes, figure_bytes, json_value, write_atomic
 from krl.robots.a1.constants import FOOT_RADIUS, LEG_NAMES, NUM_LEGS
-from krl.runner import HOLD_RAMP, HOLD_SETTLE
+from krl.runner import HOLD_RAMP, HOLD_SETTLE, TARGET_DISTANCE, TARGET_TIME_LIMIT
 from krl.timing import CONTROL_DT
 
 __all__ = [
@@ -92,9 +93,7 @@ CYCLE_POINTS: int = 80
 
 TRAJECTORY_TARGETS: int = 3
 """Waypoints the expert walks to in ``trajectories``."""
-TRAJECTORY_DISTANCE: tuple[float, float] = (2.5, 3.5)
 QUICK_TRAJECTORY_DISTANCE: tuple[float, float] = (1.0, 1.2)
-TRAJECTORY_TIME_LIMIT: float = 40.0
 QUICK_TRAJECTORY_TIME_LIMIT: float = 3.0
 ZOOM_SECONDS: float = 1.5
 """Length of the zoomed excerpt of ``trajectories`` (centred where the first waypoint is reached)."""
@@ -125,8 +124,6 @@ HEIGHTS_COMMAND: tuple[float, float, float] = (0.3, 0.0, 0.0)
 """Command of ``heights`` (the thesis does not say; a forward walk inside the training range)."""
 STEP_HEIGHTS: tuple[float, ...] = tuple(float(v) for v in np.round(np.linspace(0.05, 0.18, 6), 3))
 RIDE_HEIGHTS: tuple[float, ...] = tuple(float(v) for v in np.round(np.linspace(0.18, 0.28, 6), 3))
-NOMINAL_STEP_HEIGHT: float = 0.08
-NOMINAL_RIDE_HEIGHT: float = 0.25
 
 VELOCITY_STEP: float = 0.1
 """Spacing of the velocity sweep's commands (as the expert's figure) [m/s or rad/s]."""
@@ -484,10 +481,10 @@ def _shade(ax, t: np.ndarray, mask: np.ndarray, color: str = "0.85", label: str 
 def _trajectories(kernel, run: _Run):
     from krl.runner import random_targets
 
-    distance = QUICK_TRAJECTORY_DISTANCE if run.quick else TRAJECTORY_DISTANCE
+    distance = QUICK_TRAJECTORY_DISTANCE if run.quick else TARGET_DISTANCE
     count = 1 if run.quick else TRAJECTORY_TARGETS
     waypoints = random_targets(np.random.default_rng(run.seed), count, (0.0, 0.0), distance)
-    limit = QUICK_TRAJECTORY_TIME_LIMIT if run.quick else TRAJECTORY_TIME_LIMIT
+    limit = QUICK_TRAJECTORY_TIME_LIMIT if run.quick else TARGET_TIME_LIMIT
     params = _expert_params(kernel)
     _say(run, f"trajectories: expert walking to {count} waypoint(s) ...")
     rec = record_expert(params, run.seed, targets=waypoints, time_limit=limit)
