@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from krl.runner import realised_velocity
+from krl.control.frames import realised_velocity
 from krl.sim.robot import RobotState
 
 TERM_NAMES: tuple[str, ...] = (

@@ -1,8 +1,9 @@
 """Walking a controller to waypoints (or at a fixed command) in the simulator.
 
-Shared by ``krl expert run``, data collection and, later, the kernel and the evaluation courses:
-each control step the command generator (Algorithm 2, 20 Hz) turns the current waypoint into a
-velocity command, the controller turns it into a joint command, and the simulator steps.
+Shared by ``krl expert run``, data collection, the kernel and the evaluation courses: each control step
+the waypoint task (:class:`krl.task.waypoints.WaypointTask`: the command generator of Algorithm 2 and the
+D_min and time-limit rules) turns the current waypoint into a velocity command, the controller turns it
+into a joint command, and the simulator steps.
 """
 
 from __future__ import annotations
@@ -14,48 +15,35 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from krl.control.commands import CommandGenerator, CommandParams
+from krl.control.frames import realised_velocity
 from krl.control.types import Controller, JointCommand
 from krl.sim.robot import A1Sim, RobotState
+from krl.task.waypoints import (
+    TARGET_DISTANCE,
+    TARGET_TIME_LIMIT,
+    TaskStatus,
+    WaypointStep,
+    WaypointTask,
+    random_targets,
+)
 from krl.timing import CONTROL_DT
 
-TARGET_TIME_LIMIT: float = 40.0
-"""Default time allowed to reach one waypoint before the run gives up [s]."""
+__all__ = [
+    "HOLD_RAMP",
+    "HOLD_SETTLE",
+    "TARGET_DISTANCE",
+    "TARGET_TIME_LIMIT",
+    "RunResult",
+    "Runner",
+    "StepRecord",
+    "random_targets",
+]
 
 HOLD_RAMP: float = 1.0
 """Default time over which a fixed command rises from zero [s]."""
 
 HOLD_SETTLE: float = 1.0
 """Time after the ramp before velocities count as steady [s]."""
-
-
-TARGET_DISTANCE: tuple[float, float] = (2.5, 3.5)
-"""Distance of each random waypoint from the previous one ~ U(low, high) [m]: the thesis's data
-collection's "minimum distance of 2.5 m"; the upper end is ours."""
-
-
-def random_targets(
-    rng: np.random.Generator,
-    count: int,
-    start_xy: tuple[float, float] = (0.0, 0.0),
-    distance: tuple[float, float] = TARGET_DISTANCE,
-) -> np.ndarray:
-    """Consecutive waypoints, each at a distance ~ U(distance) [m] in a direction ~ U(-π, π) from the last.
-
-    The thesis's data collection walks to targets "at a minimum distance of 2.5 m in a random direction".
-    Shape: (count, 2).
-    """
-    if count < 0:
-        raise ValueError(f"target count must be >= 0, got {count}")
-    low, high = distance
-    if not 0 < low <= high:
-        raise ValueError(f"target distance range must satisfy 0 < low <= high, got {distance}")
-    # one (distance, direction) pair per target, in order, so a longer list extends a shorter one
-    offsets = np.zeros((count, 2))
-    for index in range(count):
-        step = rng.uniform(low, high)
-        angle = rng.uniform(-np.pi, np.pi)
-        offsets[index] = step * np.cos(angle), step * np.sin(angle)
-    return np.asarray(start_xy, dtype=float) + np.cumsum(offsets, axis=0)
 
 
 @dataclass
@@ -93,14 +81,6 @@ class RunResult:
         if not self.realised:
             return [0.0, 0.0, 0.0]
         return [float(v) for v in np.mean(self.realised, axis=0)]
-
-
-def realised_velocity(state: RobotState) -> np.ndarray:
-    """(vx, vy) of the trunk in its heading frame [m/s] and the yaw rate [rad/s]. Shape: (3,)."""
-    yaw = state.rpy[2]
-    c, s = np.cos(yaw), np.sin(yaw)
-    vx, vy = state.lin_vel_world[0], state.lin_vel_world[1]
-    return np.array([c * vx + s * vy, -s * vx + c * vy, state.ang_vel_world[2]])
 
 
 class Runner:
@@ -154,23 +134,25 @@ class Runner:
         target_index: int,
         result: RunResult,
         record_velocity: bool = True,
-    ) -> RobotState:
+    ) -> StepRecord:
         joint_command = self.controller.act(state, command)
         after = self.sim.step(*joint_command)
         if record_velocity:
             result.commanded.append(command.copy())
             result.realised.append(realised_velocity(after))
+        record = StepRecord(state, command, joint_command, after, target_index)
         if self.on_step is not None:
-            self.on_step(StepRecord(state, command, joint_command, after, target_index))
-        return after
+            self.on_step(record)
+        return record
 
     def walk_to(
         self,
         targets: np.ndarray,
-        target_time_limit: float = TARGET_TIME_LIMIT,
+        target_time_limit: float | None = TARGET_TIME_LIMIT,
         reset: bool = True,
         start_pose: tuple[float, float, float] | None = None,
         time_limit: float | None = None,
+        on_task_step: Callable[[StepRecord, WaypointStep], None] | None = None,
     ) -> RunResult:
         """Walk to each waypoint in turn (world (x, y) [m], shape (N, 2)); stop on a fall or time-out.
 
@@ -178,41 +160,40 @@ class Runner:
             targets: the waypoints. Shape: (N, 2).
             target_time_limit: time allowed for each waypoint [s].
             reset: start afresh; with ``reset=False`` the run continues from the simulator's and
-                controller's current state (the gait clock keeps running), so a long walk can be split
-                into calls, one per waypoint.
+                controller's current state (the gait clock and the command ramp keep running), so a long
+                walk can be split into calls, one per waypoint.
             start_pose: (x, y, yaw) [m, m, rad] to reset to; default the terrain's spawn point.
             time_limit: time allowed for the whole call [s] (a course's limit); None: no overall limit.
+            on_task_step: called after every control step (after ``on_step``) with the step and what it
+                did for the task (:class:`krl.task.waypoints.WaypointStep`), e.g. to score it.
         """
-        targets = np.asarray(targets, dtype=float).reshape(-1, 2)
         state = self._start(reset, start_pose)
         started_at = self.sim.time
-        generator = self.generator
+        task = WaypointTask(
+            targets, target_time_limit=target_time_limit, time_limit=time_limit, generator=self.generator
+        )
+        task.reset(state.base_pos[:2], keep_command=True)
         result = RunResult()
         wall = time.perf_counter()
-        limit_steps = round(target_time_limit / CONTROL_DT)
-        steps_left = round(time_limit / CONTROL_DT) if time_limit is not None else None
-        for index, target in enumerate(targets):
-            generator.set_target(target)
-            for _ in range(limit_steps):
-                command = generator.step(state.base_pos[:2], state.rpy[2])
-                if generator.reached:
-                    break
-                if steps_left is not None:
-                    if steps_left == 0:
-                        result.timed_out = True
-                        break
-                    steps_left -= 1
-                state = self._step(state, command, index, result)
-                if state.fallen:
-                    result.fell = True
-                    break
-            else:
-                result.timed_out = True
-            if result.fell or result.timed_out:
+        reported = 0
+        while True:
+            command = task.command(state.base_pos[:2], state.rpy[2])
+            for index in range(reported, task.reached_count):
+                if self.on_target is not None:
+                    self.on_target(index)
+            reported = task.reached_count
+            if command is None:
                 break
-            result.targets_reached += 1
-            if self.on_target is not None:
-                self.on_target(index)
+            record = self._step(state, command, task.index, result)
+            state = record.after
+            step = task.after_step(state.base_pos[:2])
+            if on_task_step is not None:
+                on_task_step(record, step)
+            if state.fallen:
+                result.fell = True
+                break
+        result.targets_reached = task.reached_count
+        result.timed_out = task.status is TaskStatus.TIMED_OUT
         result.sim_seconds = self.sim.time - started_at
         result.wall_seconds = time.perf_counter() - wall
         return result
@@ -241,7 +222,7 @@ class Runner:
         steady_from = round((ramp + HOLD_SETTLE) / CONTROL_DT)
         for k in range(round(duration / CONTROL_DT)):
             current = command * min(1.0, (k + 1) / ramp_steps)
-            state = self._step(state, current, -1, result, record_velocity=k >= steady_from)
+            state = self._step(state, current, -1, result, record_velocity=k >= steady_from).after
             if state.fallen:
                 result.fell = True
                 break

@@ -17,8 +17,9 @@ import numpy as np
 
 from krl.control.mpc import MPCError
 from krl.reward import EVALUATION_REWARD, RewardParams, reward_terms
-from krl.runner import TARGET_TIME_LIMIT, Runner, StepRecord
+from krl.runner import Runner, StepRecord
 from krl.sim.robot import SimulationUnstableError
+from krl.task.waypoints import TARGET_TIME_LIMIT, WaypointStep
 
 RUN_METRICS: tuple[str, ...] = (
     "targets",
@@ -40,17 +41,17 @@ RUN_METRICS: tuple[str, ...] = (
 
 
 class EpisodeScorer:
-    """Called after every control step (``Runner(on_step=scorer)``); accumulates one run's metrics.
+    """Called after every control step of a walk (``Runner.walk_to(on_task_step=scorer)``); accumulates
+    one run's metrics. The distance to the waypoint and whether it was reached come from the walk's
+    :class:`krl.task.waypoints.WaypointTask`, so the reward and the runner cannot disagree on them.
 
     Args:
         targets: the run's waypoints, world (x, y) [m]. Shape: (N, 2).
-        d_min: the waypoint threshold [m] (the command generator's).
         reward: the reward function.
     """
 
-    def __init__(self, targets: np.ndarray, d_min: float, reward: RewardParams = EVALUATION_REWARD) -> None:
+    def __init__(self, targets: np.ndarray, reward: RewardParams = EVALUATION_REWARD) -> None:
         self.targets = np.asarray(targets, dtype=float).reshape(-1, 2)
-        self.d_min = float(d_min)
         self.reward = reward
         self.steps = 0
         self.targets_reached = 0
@@ -59,19 +60,16 @@ class EpisodeScorer:
         self.distance_walked = 0.0
         """Planar path length of the base [m]."""
 
-    def __call__(self, record: StepRecord) -> None:
+    def __call__(self, record: StepRecord, step: WaypointStep) -> None:
         after = record.after
-        target = self.targets[record.target_index]
-        distance = math.hypot(target[0] - after.base_pos[0], target[1] - after.base_pos[1])
-        reached = distance < self.d_min
-        terms = reward_terms(self.reward, record.command, after, distance, reached, after.fallen)
+        terms = reward_terms(self.reward, record.command, after, step.distance, step.reached, after.fallen)
         for name, value in terms.items():
             self.term_sums[name] = self.term_sums.get(name, 0.0) + value
         self.steps += 1
-        self.targets_reached += reached
+        self.targets_reached += step.reached
         self.fell = self.fell or after.fallen
-        step = after.base_pos[:2] - record.before.base_pos[:2]
-        self.distance_walked += math.hypot(step[0], step[1])
+        moved = after.base_pos[:2] - record.before.base_pos[:2]
+        self.distance_walked += math.hypot(moved[0], moved[1])
 
     def metrics(
         self, sim_seconds: float, wall_seconds: float, timed_out: bool, error: str | None = None
@@ -123,26 +121,28 @@ def score_walk(
 
     from krl.control.commands import CommandParams
 
-    scorer = EpisodeScorer(targets, d_min, reward)
+    scorer = EpisodeScorer(targets, reward)
     recorder = None
     if video is not None:
         from krl.sim.video import VideoRecorder
 
         recorder = VideoRecorder(sim, video)
 
-    def on_step(record: StepRecord) -> None:
-        scorer(record)
+    def on_step(record: StepRecord, step: WaypointStep) -> None:
+        scorer(record, step)
         if recorder is not None:
             recorder.capture()
 
-    runner = Runner(sim, controller, replace(CommandParams(), d_min=d_min), on_step=on_step)
+    runner = Runner(sim, controller, replace(CommandParams(), d_min=d_min))
     wall = time.perf_counter()
     timed_out, error = False, None
     try:
         runner.start(start_pose)
         if push is not None:
             sim.push(push)
-        result = runner.walk_to(targets, target_time_limit=time_limit, reset=False, time_limit=time_limit)
+        result = runner.walk_to(
+            targets, target_time_limit=time_limit, reset=False, time_limit=time_limit, on_task_step=on_step
+        )
         timed_out = result.timed_out
     except (SimulationUnstableError, MPCError) as failure:
         error = f"{type(failure).__name__}: {failure}"
