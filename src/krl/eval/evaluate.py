@@ -14,9 +14,7 @@ from __future__ import annotations
 import json
 import statistics
 from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
-from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +24,7 @@ from krl.eval.controllers import ControllerSpec
 from krl.eval.courses import Course
 from krl.eval.episodes import PushSweep, score_push_attempt, score_walk
 from krl.output import write_atomic
+from krl.parallel import run_jobs
 
 RESULT_FORMAT = 1
 """Version of the per-run result files."""
@@ -163,7 +162,9 @@ def execute(
     """Run the tasks whose results are not stored yet; return every task's record, in task order.
 
     ``on_done(task, record, ran)`` is called for each task as its record becomes available (``ran``:
-    False for a stored result). Interrupting loses only the runs in flight.
+    False for a stored result). The runs go through :func:`krl.parallel.run_jobs`: Ctrl-C or SIGTERM
+    stops the workers and raises :class:`krl.parallel.Interrupted` (a ``KeyboardInterrupt``); only the
+    runs in flight are lost, every record passed to ``on_done`` is stored.
     """
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
@@ -178,27 +179,14 @@ def execute(
         else:
             pending.append(task)
 
-    def finish(task: Task, record: dict[str, Any]) -> None:
+    def finish(index: int, record: dict[str, Any]) -> None:
+        task = pending[index]
         write_atomic(result_path(out, task), json.dumps(record, indent=1))
         records[task.controller.label, task.key] = record
         if on_done is not None:
             on_done(task, record, True)
 
-    if workers == 1 or len(pending) <= 1:
-        for task in pending:
-            finish(task, run_task(task))
-    else:
-        with ProcessPoolExecutor(min(workers, len(pending)), mp_context=get_context("spawn")) as pool:
-            futures = {pool.submit(run_task, task): task for task in pending}
-            try:
-                while futures:
-                    done, _ = wait(futures, return_when=FIRST_COMPLETED)
-                    for future in done:
-                        finish(futures.pop(future), future.result())
-            except BaseException:
-                for future in futures:
-                    future.cancel()
-                raise
+    run_jobs(run_task, pending, workers, on_result=finish)
     return [records[task.controller.label, task.key] for task in tasks]
 
 

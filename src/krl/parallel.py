@@ -1,0 +1,212 @@
+"""One process pool for krl's long commands: :func:`run_jobs` runs picklable jobs on spawn-started workers.
+
+Used by ``krl evaluate`` (:mod:`krl.eval.evaluate`) and the figure drivers of :mod:`krl.analysis`.
+
+- **Deterministic.** Results come back in job order, and ``on_result`` receives each one with its job's
+  index, so what a caller stores never depends on the number of workers or on which job finishes first
+  (each job must carry its own seed).
+- **No worker outlives the call.** Ctrl-C (SIGINT) or SIGTERM of the parent terminates the workers and
+  raises :class:`Interrupted`, which names the jobs whose results were delivered; an error in a job
+  terminates the workers and re-raises that error. If the parent dies without cleaning up (``kill -9``),
+  each worker is sent SIGTERM by the kernel (Linux ``prctl(PR_SET_PDEATHSIG)``); elsewhere, or should that
+  fail, a watchdog thread in the worker sees its parent change within :data:`PARENT_POLL` seconds and
+  exits.
+- **Spawn start.** Workers start a fresh interpreter (no forked copy of the parent's threads, MuJoCo or
+  torch state); a job's function must be importable at module level.
+
+``workers=1`` (or a single job) runs in this process, with the same signal handling.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import multiprocessing
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from contextlib import contextmanager
+from typing import Any, TypeVar
+
+from krl.progress import progress_bar
+
+__all__ = ["PARENT_POLL", "STOP_GRACE", "Interrupted", "run_jobs"]
+
+J = TypeVar("J")
+R = TypeVar("R")
+
+PARENT_POLL: float = 1.0
+"""How often a worker's watchdog checks that its parent is alive [s]."""
+STOP_GRACE: float = 3.0
+"""How long terminated workers get to exit before they are killed [s]."""
+
+_STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
+_PR_SET_PDEATHSIG = 1
+"""``PR_SET_PDEATHSIG`` of ``<linux/prctl.h>``."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM stopped :func:`run_jobs`; its workers are gone.
+
+    A ``KeyboardInterrupt``, so code that already handles Ctrl-C handles SIGTERM the same way.
+    """
+
+    def __init__(self, signum: int, finished: Sequence[int] = ()) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = int(signum)
+        """The signal that stopped the run (``signal.SIGINT`` or ``signal.SIGTERM``)."""
+        self.finished: tuple[int, ...] = tuple(sorted(finished))
+        """Indices (into the ``jobs`` given) of the jobs whose results were delivered, ascending."""
+
+
+def run_jobs(
+    function: Callable[[J], R],
+    jobs: Sequence[J],
+    workers: int = 1,
+    *,
+    on_result: Callable[[int, R], None] | None = None,
+    progress: str | None = None,
+) -> list[R]:
+    """``[function(job) for job in jobs]``, on up to ``workers`` processes.
+
+    Args:
+        function: a module-level function (pickled by name to the workers).
+        jobs: picklable arguments, one call each; submitted in this order (put the longest first).
+        workers: processes; ``1`` (or a single job) runs in this process.
+        on_result: called in this process with ``(index, result)`` as each job finishes (in completion
+            order); a job counts as delivered once this returns.
+        progress: description of a transient progress bar on stderr (drawn only on a terminal); ``None``
+            for no bar.
+
+    Returns:
+        The results in job order.
+
+    Raises:
+        Interrupted: SIGINT or SIGTERM arrived (the workers are stopped first).
+        ValueError: ``workers < 1``.
+        Exception: whatever a job raised (the other workers are stopped first).
+    """
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    jobs = list(jobs)
+    results: dict[int, R] = {}
+
+    def deliver(index: int, result: R) -> None:
+        if on_result is not None:
+            on_result(index, result)
+        results[index] = result
+        bar.advance(task)
+
+    with _signals_raise(), progress_bar(progress is not None, transient=True) as bar:
+        task = bar.add_task(progress or "", total=len(jobs))
+        try:
+            if workers == 1 or len(jobs) <= 1:
+                for index, job in enumerate(jobs):
+                    deliver(index, function(job))
+            else:
+                _run_pool(function, jobs, min(workers, len(jobs)), deliver)
+        except Interrupted as stop:
+            raise Interrupted(stop.signum, list(results)) from None
+        except KeyboardInterrupt:  # SIGINT before our handler was in place, or its handler was not ours
+            raise Interrupted(signal.SIGINT, list(results)) from None
+    return [results[index] for index in range(len(jobs))]
+
+
+def _run_pool(
+    function: Callable[[J], R], jobs: list[J], workers: int, deliver: Callable[[int, R], None]
+) -> None:
+    """Run every job on ``workers`` spawn-started processes; on any exception stop them, then re-raise."""
+    before = set(multiprocessing.active_children())
+    pool = ProcessPoolExecutor(
+        workers,
+        mp_context=multiprocessing.get_context("spawn"),
+        initializer=_worker_init,
+        initargs=(os.getpid(),),
+    )
+    try:
+        futures = {pool.submit(function, job): index for index, job in enumerate(jobs)}
+        while futures:
+            done, _ = wait(futures, return_when=FIRST_COMPLETED)
+            for future in sorted(done, key=futures.__getitem__):
+                deliver(futures.pop(future), future.result())
+    except BaseException:
+        with _signals_ignored():
+            pool.shutdown(wait=False, cancel_futures=True)
+            _stop([child for child in multiprocessing.active_children() if child not in before])
+        raise
+    pool.shutdown()
+
+
+def _stop(processes: Sequence[Any]) -> None:
+    """SIGTERM each ``multiprocessing`` process, SIGKILL what is left after :data:`STOP_GRACE`; reap all."""
+    for process in processes:
+        process.terminate()
+    deadline = time.monotonic() + STOP_GRACE
+    for process in processes:
+        process.join(max(0.0, deadline - time.monotonic()))
+    for process in processes:
+        if process.is_alive():
+            process.kill()
+            process.join()
+
+
+def _raise_interrupted(signum: int, frame: object) -> None:
+    raise Interrupted(signum)
+
+
+@contextmanager
+def _signals_raise() -> Iterator[None]:
+    """Inside: SIGINT and SIGTERM raise :class:`Interrupted` (main thread only; an ignored signal stays
+    ignored). The previous handlers come back on exit."""
+    with _handlers(_raise_interrupted):
+        yield
+
+
+@contextmanager
+def _signals_ignored() -> Iterator[None]:
+    """Inside: SIGINT and SIGTERM are ignored, so a second Ctrl-C cannot cut the workers' clean-up short."""
+    with _handlers(signal.SIG_IGN):
+        yield
+
+
+@contextmanager
+def _handlers(handler: Any) -> Iterator[None]:
+    if threading.current_thread() is not threading.main_thread():
+        yield  # signal handlers can only be set from the main thread
+        return
+    previous = {}
+    for signum in _STOP_SIGNALS:
+        if signal.getsignal(signum) is not signal.SIG_IGN:
+            previous[signum] = signal.signal(signum, handler)
+    try:
+        yield
+    finally:
+        for signum, old in previous.items():
+            signal.signal(signum, old)
+
+
+def _worker_init(parent: int) -> None:
+    """Runs first in every worker: leave Ctrl-C to the parent, and die with the parent.
+
+    Ctrl-C on a terminal reaches the whole process group; the parent stops the workers itself, so a
+    worker ignores SIGINT (no traceback per worker).
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM))
+        except (OSError, AttributeError):
+            pass  # the watchdog below still covers it
+    if os.getppid() != parent:  # the parent died before the prctl took effect
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent,), name="krl-parent-watchdog", daemon=True).start()
+
+
+def _watch_parent(parent: int) -> None:
+    """Exit this worker as soon as its parent process is no longer ``parent`` (it died; init adopted us)."""
+    while os.getppid() == parent:
+        time.sleep(PARENT_POLL)
+    os._exit(1)
