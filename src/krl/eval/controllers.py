@@ -7,23 +7,25 @@
 | ``kernel`` | the shipped kernel-base |
 | ``kernel:ext`` | a shipped kernel by name |
 | ``kernel:PATH`` | a kernel file (``krl kernel train`` output) |
+| ``agent`` | the shipped residual agent agent-rp (kernel + PPO residuals) |
+| ``agent:base`` | a shipped agent by name |
+| ``agent:PATH`` | a policy file (``krl agent train`` output), or a directory of per-seed policy files |
 
-A :class:`ControllerSpec` is plain data, so worker processes rebuild the controller from it. Every
-controller implements :class:`krl.control.types.Controller`, so one runner scores them all.
+Each kind is one entry of :data:`CONTROLLER_KINDS` (parse, build, report title), so a new kind joins by
+adding one. A :class:`ControllerSpec` is plain data, so worker processes rebuild the controller from it;
+the files it is built from are named with their SHA-256, so stored results are tied to the files'
+content, not their paths. Every controller implements :class:`krl.control.types.Controller`, so one
+runner scores them all.
 """
 
 from __future__ import annotations
 
 import hashlib
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
-
-CONTROLLER_KINDS: tuple[str, ...] = ("expert", "kernel")
-"""Kinds of controller ``krl evaluate`` knows."""
-
-_EXPERT_OPTIONS = {"stance": "stance_duration", "step": "step_height", "ride": "ride_height"}
 
 
 class ControllerSpecError(ValueError):
@@ -31,93 +33,201 @@ class ControllerSpecError(ValueError):
 
 
 @dataclass(frozen=True)
+class Artifact:
+    """A file a controller is built from."""
+
+    path: str
+    """Absolute path."""
+    sha256: str
+    """SHA-256 of the file's content."""
+    seed: int | None = None
+    """The training seed this file belongs to (per-seed policies), or None."""
+
+    @classmethod
+    def of(cls, path: Path, seed: int | None = None) -> Artifact:
+        return cls(str(path.resolve()), hashlib.sha256(path.read_bytes()).hexdigest(), seed)
+
+
+@dataclass(frozen=True)
 class ControllerSpec:
     """What to build in each run."""
 
     kind: str
-    """One of :data:`CONTROLLER_KINDS`."""
+    """A key of :data:`CONTROLLER_KINDS`."""
     label: str
-    """A file-name-safe name for results (``expert-stance0.2``, ``kernel-base``)."""
+    """A file-name-safe name for results (``expert-stance0.2``, ``kernel-base``, ``agent-rp``)."""
     options: tuple[tuple[str, Any], ...] = ()
     """Keyword options of the controller's constructor."""
-    model: str | None = None
-    """Kernel file, for ``kind == "kernel"``."""
-    model_sha256: str | None = None
-    """SHA-256 of the kernel file: stored results are tied to the file's content, not its path."""
-    seeded: bool = False
-    """Whether the controller depends on the run's seed (deterministic controllers run once per start)."""
+    artifacts: tuple[Artifact, ...] = ()
+    """The files the controller is built from (a kernel; a policy, or one policy per seed)."""
+
+    @property
+    def seeded(self) -> bool:
+        """Whether runs differ by seed: one artifact per training seed, each run using its seed's."""
+        return any(artifact.seed is not None for artifact in self.artifacts)
+
+    @property
+    def seeds(self) -> tuple[int, ...]:
+        """The training seeds of per-seed artifacts (empty for other controllers)."""
+        return tuple(a.seed for a in self.artifacts if a.seed is not None)
+
+    @property
+    def content_hash(self) -> str | None:
+        """SHA-256 naming the artifacts' content: the one file's, or the hash of every file's hash."""
+        if not self.artifacts:
+            return None
+        if len(self.artifacts) == 1:
+            return self.artifacts[0].sha256
+        joined = "\n".join(f"{a.seed}:{a.sha256}" for a in self.artifacts)
+        return hashlib.sha256(joined.encode()).hexdigest()
+
+    def artifact(self, seed: int | None = None) -> Artifact:
+        """The file for a run of ``seed`` (the only one, for controllers that are not seeded)."""
+        if not self.seeded:
+            return self.artifacts[0]
+        for candidate in self.artifacts:
+            if candidate.seed == seed:
+                return candidate
+        raise ControllerSpecError(
+            f"controller {self.label}: no policy for seed {seed} (has seeds {', '.join(map(str, self.seeds))})"
+        )
 
     def build(self, seed: int | None = None):
-        """A fresh controller for one run (``seed`` selects seed-dependent controllers' randomness)."""
-        if self.kind == "expert":
-            from krl.control.expert import ExpertParams, MPCExpert
+        """A fresh controller for one run (``seed`` selects the per-seed artifact of seeded controllers)."""
+        return CONTROLLER_KINDS[self.kind].build(self, seed)
 
-            return MPCExpert(ExpertParams(**dict(self.options)))
-        from krl.kernel.controller import KernelController
-        from krl.kernel.model import load_kernel
-
-        assert self.model is not None
-        return KernelController(load_kernel(self.model), **dict(self.options))
+    @property
+    def title(self) -> str:
+        """What reports call this controller."""
+        return CONTROLLER_KINDS[self.kind].title
 
     def describe(self) -> dict[str, Any]:
         """JSON-ready description, stored with every result."""
-        return {
+        description = {
             "kind": self.kind,
             "label": self.label,
             "options": dict(self.options),
-            "model_sha256": self.model_sha256,
+            "model_sha256": self.content_hash,
         }
+        if self.seeded:
+            description["seeds"] = list(self.seeds)
+        return description
+
+
+@dataclass(frozen=True)
+class ControllerKind:
+    """One kind of controller: how a spec's text after ``kind:`` is parsed and how a run builds it."""
+
+    parse: Callable[[str, str], ControllerSpec]
+    """``(whole spec text, text after the colon) -> spec``; raises :class:`ControllerSpecError`."""
+    build: Callable[[ControllerSpec, int | None], Any]
+    """``(spec, run seed) -> controller``."""
+    title: str
+    """Name in reports."""
+
+
+# --- expert ----------------------------------------------------------------------------------------
+
+_EXPERT_OPTIONS = {"stance": "stance_duration", "step": "step_height", "ride": "ride_height"}
+
+
+def _parse_expert(text: str, rest: str) -> ControllerSpec:
+    from krl.control.expert import ExpertParams
+
+    options: dict[str, float] = {"stance_duration": ExpertParams.stance_duration}
+    for item in filter(None, (part.strip() for part in rest.split(","))):
+        key, sep, value = item.partition("=")
+        if not sep or key not in _EXPERT_OPTIONS:
+            raise ControllerSpecError(
+                f"controller {text!r}: expert options are "
+                f"{', '.join(k + '=VALUE' for k in _EXPERT_OPTIONS)}, got {item!r}"
+            )
+        try:
+            number = float(value)
+        except ValueError:
+            number = math.nan
+        if not math.isfinite(number):
+            raise ControllerSpecError(f"controller {text!r}: {key} must be a number, got {value!r}")
+        options[_EXPERT_OPTIONS[key]] = number
+    try:
+        ExpertParams(**options)
+    except ValueError as error:
+        raise ControllerSpecError(f"controller {text!r}: {error}") from None
+    label = f"expert-stance{options['stance_duration']:g}" + "".join(
+        f"-{key.split('_')[0]}{value:g}" for key, value in sorted(options.items()) if key != "stance_duration"
+    )
+    return ControllerSpec("expert", label, tuple(sorted(options.items())))
+
+
+def _build_expert(spec: ControllerSpec, seed: int | None):
+    from krl.control.expert import ExpertParams, MPCExpert
+
+    return MPCExpert(ExpertParams(**dict(spec.options)))
+
+
+# --- kernel ----------------------------------------------------------------------------------------
+
+
+def _parse_kernel(text: str, rest: str) -> ControllerSpec:
+    from krl.kernel.model import KernelFileError, load_kernel
+    from krl.kernel.registry import SHIPPED_MODELS, resolve_model
+
+    model = rest.strip() or "base"
+    path = resolve_model(model)
+    if not path.is_file():
+        raise ControllerSpecError(
+            f"controller {text!r}: no kernel file {str(path)!r} (shipped: {', '.join(SHIPPED_MODELS)})"
+        )
+    try:
+        load_kernel(path)
+    except KernelFileError as error:
+        raise ControllerSpecError(f"controller {text!r}: {error}") from None
+    name = model if model in SHIPPED_MODELS else Path(model).stem.removeprefix("kernel-")
+    return ControllerSpec("kernel", f"kernel-{name}", (), (Artifact.of(path),))
+
+
+def _build_kernel(spec: ControllerSpec, seed: int | None):
+    from krl.kernel.controller import KernelController
+    from krl.kernel.model import load_kernel
+
+    return KernelController(load_kernel(spec.artifact().path), **dict(spec.options))
+
+
+# --- agent -----------------------------------------------------------------------------------------
+
+
+def _parse_agent(text: str, rest: str) -> ControllerSpec:
+    from krl.agent.policy import PolicyFileError, policy_artifacts
+
+    try:
+        name, files = policy_artifacts(rest.strip())
+    except PolicyFileError as error:
+        raise ControllerSpecError(f"controller {text!r}: {error}") from None
+    artifacts = tuple(Artifact.of(path, seed) for seed, path in files)
+    return ControllerSpec("agent", f"agent-{name}", (), artifacts)
+
+
+def _build_agent(spec: ControllerSpec, seed: int | None):
+    from krl.agent.controller import AgentController
+    from krl.agent.policy import load_policy
+
+    return AgentController(load_policy(spec.artifact(seed).path))
+
+
+CONTROLLER_KINDS: dict[str, ControllerKind] = {
+    "expert": ControllerKind(_parse_expert, _build_expert, "MPC"),
+    "kernel": ControllerKind(_parse_kernel, _build_kernel, "Kernel"),
+    "agent": ControllerKind(_parse_agent, _build_agent, "Agent"),
+}
+"""Every kind of controller ``krl evaluate`` knows, by the name before the colon of a spec."""
 
 
 def parse_controller(text: str) -> ControllerSpec:
     """Parse a spec string (module docstring); raises :class:`ControllerSpecError` with one line."""
     kind, _, rest = text.partition(":")
-    kind = kind.strip()
-    if kind == "expert":
-        options: dict[str, float] = {"stance_duration": 0.2}
-        for item in filter(None, (part.strip() for part in rest.split(","))):
-            key, sep, value = item.partition("=")
-            if not sep or key not in _EXPERT_OPTIONS:
-                raise ControllerSpecError(
-                    f"controller {text!r}: expert options are "
-                    f"{', '.join(k + '=VALUE' for k in _EXPERT_OPTIONS)}, got {item!r}"
-                )
-            try:
-                number = float(value)
-            except ValueError:
-                number = math.nan
-            if not math.isfinite(number):
-                raise ControllerSpecError(f"controller {text!r}: {key} must be a number, got {value!r}")
-            options[_EXPERT_OPTIONS[key]] = number
-        from krl.control.expert import ExpertParams
-
-        try:
-            ExpertParams(**options)
-        except ValueError as error:
-            raise ControllerSpecError(f"controller {text!r}: {error}") from None
-        label = f"expert-stance{options['stance_duration']:g}" + "".join(
-            f"-{key.split('_')[0]}{value:g}"
-            for key, value in sorted(options.items())
-            if key != "stance_duration"
+    entry = CONTROLLER_KINDS.get(kind.strip())
+    if entry is None:
+        raise ControllerSpecError(
+            f"unknown controller {text!r}; known: {', '.join(CONTROLLER_KINDS)} (see --help)"
         )
-        return ControllerSpec("expert", label, tuple(sorted(options.items())))
-    if kind == "kernel":
-        from krl.kernel.cli import SHIPPED_MODELS, resolve_model
-        from krl.kernel.model import KernelFileError, load_kernel
-
-        model = rest.strip() or "base"
-        path = resolve_model(model)
-        if not path.is_file():
-            raise ControllerSpecError(
-                f"controller {text!r}: no kernel file {str(path)!r} (shipped: {', '.join(SHIPPED_MODELS)})"
-            )
-        try:
-            load_kernel(path)
-        except KernelFileError as error:
-            raise ControllerSpecError(f"controller {text!r}: {error}") from None
-        name = model if model in SHIPPED_MODELS else Path(model).stem.removeprefix("kernel-")
-        digest = hashlib.sha256(path.read_bytes()).hexdigest()
-        return ControllerSpec("kernel", f"kernel-{name}", (), str(path.resolve()), digest)
-    raise ControllerSpecError(
-        f"unknown controller {text!r}; known: {', '.join(CONTROLLER_KINDS)} (see --help)"
-    )
+    return entry.parse(text, rest)
