@@ -88,9 +88,8 @@ class ControllerSpec:
         for candidate in self.artifacts:
             if candidate.seed == seed:
                 return candidate
-        raise ControllerSpecError(
-            f"controller {self.label}: no policy for seed {seed} (has seeds {', '.join(map(str, self.seeds))})"
-        )
+        known = ", ".join(map(str, self.seeds))
+        raise ControllerSpecError(f"controller {self.label}: no policy for seed {seed} (has seeds {known})")
 
     def build(self, seed: int | None = None):
         """A fresh controller for one run (``seed`` selects the per-seed artifact of seeded controllers)."""

@@ -12,24 +12,15 @@ from collections import deque
 
 import numpy as np
 
-from krl.control.expert import (
-    NOMINAL_RIDE_HEIGHT,
-    NOMINAL_STEP_HEIGHT,
-    RIDE_HEIGHT_RANGE,
-    STEP_HEIGHT_RANGE,
-)
+from krl.control.expert import RIDE_HEIGHT_RANGE, STEP_HEIGHT_RANGE
 from krl.control.gait import GaitGenerator, gait_params
 from krl.control.kinematics import inverse_kinematics
 from krl.control.types import JointCommand
-from krl.kernel.features import HISTORY, features_from_columns
+from krl.kernel.features import HISTORY, features_from_columns, input_columns
 from krl.kernel.model import Kernel
+from krl.kernel.registry import training_settings
 from krl.robots.a1.constants import NUM_LEGS
 from krl.sim.robot import RobotState
-
-
-def _training_setting(kernel: Kernel, name: str, default):
-    expert = kernel.metadata.get("dataset_settings", {}).get("expert", {})
-    return expert.get(name, default)
 
 
 class KernelController:
@@ -52,18 +43,18 @@ class KernelController:
         ride_height: float | None = None,
     ) -> None:
         self.kernel = kernel
-        gait = gait or _training_setting(kernel, "gait", "trot")
-        stance_duration = stance_duration or _training_setting(kernel, "stance_duration", 0.2)
+        trained = training_settings(kernel).expert
+        gait = trained.gait if gait is None else gait
+        stance_duration = trained.stance_duration if stance_duration is None else stance_duration
         self.gait_name: str = gait
         """Name of the gait fed to the kernel (Table 4.1)."""
         self.gait = GaitGenerator(gait_params(gait, stance_duration=stance_duration))
         self.step_height = 0.0
         self.ride_height = 0.0
-        if step_height is None:
-            step_height = _training_setting(kernel, "step_height", NOMINAL_STEP_HEIGHT)
-        if ride_height is None:
-            ride_height = _training_setting(kernel, "ride_height", NOMINAL_RIDE_HEIGHT)
-        self.set_heights(step_height, ride_height)
+        self.set_heights(
+            trained.step_height if step_height is None else step_height,
+            trained.ride_height if ride_height is None else ride_height,
+        )
         self._history: deque[dict[str, np.ndarray]] = deque(maxlen=HISTORY)
         self.last_targets: np.ndarray | None = None
         """Foot targets of the last step, base frame [m]. Shape: (4, 3)."""
@@ -83,26 +74,12 @@ class KernelController:
         self._history.clear()
         self.last_targets = None
 
-    def _row(self, state: RobotState, command: np.ndarray) -> dict[str, np.ndarray]:
-        return {
-            "v_cmd": np.asarray(command[:2], dtype=np.float64)[None],
-            "yaw_cmd": np.array([command[2]], dtype=np.float64),
-            "normalised_phase": self.gait.normalised_phases[None],
-            "sine_phase": self.gait.sine_phases[None],
-            "step_height": np.array([self.step_height]),
-            "ride_height": np.array([self.ride_height]),
-            "base_lin_vel": state.lin_vel_base[None],
-            "base_ang_vel": state.ang_vel_base[None],
-            "q": state.joint_pos[None],
-            "dq": state.joint_vel[None],
-            "com": ((state.com - state.base_pos) @ state.base_rot)[None],
-            "projected_gravity": state.projected_gravity[None],
-        }
-
     def foot_targets(self, state: RobotState, command: np.ndarray) -> np.ndarray:
         """Advance the gait clock and return the kernel's foot targets, base frame [m]. Shape: (4, 3)."""
         self.gait.step()
-        row = self._row(state, np.asarray(command, dtype=np.float64))
+        row = input_columns(
+            state, command, self.gait.normalised_phases, self.step_height, self.ride_height
+        )
         variant = self.kernel.variant
         if variant == "dyn2":
             self._history.append(row)
