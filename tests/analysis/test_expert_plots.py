@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from krl.analysis import expert_plots as ep
+from krl.cli import expert as expert_cli
 from krl.timing import CONTROL_DT
 
 
@@ -187,9 +188,9 @@ def test_quick_velocity_table(quick_all):
 
 def test_cli_run_in_process_matches_the_pool(quick_all, tmp_path, capsys):
     parser = argparse.ArgumentParser()
-    ep.add_arguments(parser)
+    expert_cli.add_plot_arguments(parser)
     args = parser.parse_args(["com-variance", "--out", str(tmp_path), "--quick", "--workers", "1", "--json"])
-    assert ep.run(args) == 0
+    assert expert_cli.cmd_expert_plot(args) == 0
     printed = json.loads(capsys.readouterr().out)
     assert set(printed["figures"]) == {"com-variance"}
     here = json.loads((tmp_path / "com-variance.json").read_text())

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from krl.cli import main
-from krl.kernel.cli import SHIPPED_MODELS, shipped_model_path
 from krl.kernel.controller import KernelController
 from krl.kernel.features import VARIANTS, input_names, output_size
 from krl.kernel.model import Kernel, NetworkConfig, load_kernel
+from krl.kernel.registry import SHIPPED_MODELS, shipped_model_path
 from krl.runner import Runner, random_targets
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim

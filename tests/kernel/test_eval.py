@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from krl.kernel.cli import error_breakdown, score
 from krl.kernel.model import NetworkConfig
+from krl.kernel.scoring import error_breakdown, score
 from krl.kernel.train import TrainConfig, train_kernel
 
 

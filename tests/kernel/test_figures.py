@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from krl.cli import kernel as kernel_cli
 from krl.kernel import figures as kf
-from krl.kernel.cli import shipped_model_path
 from krl.kernel.features import input_names, output_size
 from krl.kernel.model import Kernel, NetworkConfig
+from krl.kernel.registry import shipped_model_path
 
 HAS_EXT = shipped_model_path("ext").is_file()
 
@@ -145,9 +146,9 @@ def test_quick_trajectories(tmp_path):
 
 def test_quick_command_sweep_and_the_cli(tmp_path, capsys):
     parser = argparse.ArgumentParser()
-    kf.add_arguments(parser)
+    kernel_cli.add_figures_arguments(parser)
     args = parser.parse_args(["command-sweep", "--out", str(tmp_path), "--quick", "--workers", "1"])
-    assert kf.run(args) == 0
+    assert kernel_cli.run_figures(args) == 0
     assert "command-sweep (Fig. 4.10)" in capsys.readouterr().out
     table = json.loads((tmp_path / "command-sweep.json").read_text())
     assert {r["command"] for r in table["conditions"]} == {"vx", "vy", "wz"}

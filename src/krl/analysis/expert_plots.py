@@ -24,7 +24,6 @@ deviation. The trunk's roll and pitch standard deviations (rocking seen as tilt)
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import multiprocessing
@@ -48,7 +47,6 @@ __all__ = [
     "CHOICES",
     "FIGURES",
     "PlotError",
-    "add_arguments",
     "com_deviation",
     "com_metrics",
     "detrend_kernel",
@@ -57,7 +55,6 @@ __all__ = [
     "gait_cycle",
     "make_figures",
     "moving_average_kernel",
-    "run",
 ]
 
 
@@ -852,93 +849,3 @@ def make_figures(
         "workers": workers,
         "wall_seconds": round(time.perf_counter() - start, 2),
     }
-
-
-# --- command line -----------------------------------------------------------------------------------
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of ``krl expert plot``."""
-    parser.add_argument("which", metavar="WHICH", help=f"figure to make: {', '.join(CHOICES)}")
-    parser.add_argument(
-        "--out", required=True, metavar="DIR", help="output folder (PNG, JSON, CSV per figure)"
-    )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the random waypoints and terrain")
-    parser.add_argument(
-        "--targets",
-        type=int,
-        default=None,
-        help=f"random waypoints per CoM condition (default {DEFAULT_TARGETS}; {QUICK_TARGETS} with --quick)",
-    )
-    parser.add_argument(
-        "--duration",
-        type=float,
-        default=None,
-        help=f"velocity sweep: seconds each command is held (default {DEFAULT_DURATION:g}; "
-        f"{QUICK_DURATION:g} with --quick)",
-    )
-    parser.add_argument(
-        "--workers", type=int, default=None, help="worker processes (default: number of CPUs; 1 = in-process)"
-    )
-    parser.add_argument("--quick", action="store_true", help="tiny runs (tests): 1 short waypoint, 3 s holds")
-    parser.add_argument("--json", action="store_true", help="print a JSON summary instead of text")
-
-
-def _text_summary(summary: dict[str, Any]) -> str:
-    lines = []
-    for name, figure in summary["figures"].items():
-        table = figure["table"]
-        lines.append(f"{name} ({table['thesis_figure']}): {figure['png']}, {figure['json']}, {figure['csv']}")
-        if name == "velocity":
-            for axis, fit in table["fits"].items():
-                lines.append(
-                    f"  {axis}: slope {fit['slope']}, offset {fit['offset']}, rmse {fit['rmse']}, "
-                    f"max |cross| {fit['max_abs_cross']}"
-                )
-        else:
-            for row in table["conditions"]:
-                std = [row[k] for k in ("com_std_x", "com_std_y", "com_std_z")]
-                mm = "/".join("nan" if v is None else f"{1e3 * v:.2f}" for v in std)
-                tilt = "/".join(
-                    "nan" if row[k] is None else f"{row[k]:.2f}" for k in ("roll_std_deg", "pitch_std_deg")
-                )
-                lines.append(
-                    f"  {row['label']}: com_std x/y/z {mm} mm, roll/pitch std {tilt} deg, "
-                    f"reached {row['targets_reached']}, fell {row['fell']}"
-                )
-    lines.append(
-        f"{summary['conditions_run']} conditions, {summary['workers']} workers, {summary['wall_seconds']} s"
-    )
-    return "\n".join(lines)
-
-
-def print_json_summary(summary: dict[str, Any], digest=None) -> None:
-    """Print a figure run's summary as JSON: each figure's paths without its full table, plus
-    ``digest(table)`` (a dict) where given. Shared by ``krl expert plot`` and ``krl kernel figures``."""
-    printable = {
-        **summary,
-        "figures": {
-            name: {key: value for key, value in figure.items() if key != "table"}
-            | (digest(figure["table"]) if digest else {})
-            for name, figure in summary["figures"].items()
-        },
-    }
-    print(json.dumps(printable, indent=2, ensure_ascii=False))
-
-
-def run(args: argparse.Namespace) -> int:
-    """``krl expert plot``: make the figure(s); print a summary (text or ``--json``)."""
-    summary = make_figures(
-        args.which,
-        args.out,
-        seed=args.seed,
-        targets=args.targets,
-        duration=args.duration,
-        workers=args.workers,
-        quick=args.quick,
-    )
-    if args.json:
-        print_json_summary(summary, lambda table: {"summary": table.get("fits") or table["conditions"]})
-    else:
-        print(_text_summary(summary))
-    return 0

@@ -23,13 +23,11 @@ Modes:
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import dataclasses
 import datetime
 import json
 import os
-import sys
 import time
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
@@ -652,70 +650,6 @@ def collect_dataset(
     )
 
 
-# --- CLI -------------------------------------------------------------------------------------------
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of ``krl collect``."""
-    from krl.cli import _add_terrain_arguments, add_expert_arguments
-
-    parser.add_argument("--out", required=True, help="dataset directory (created, or resumed if it exists)")
-    parser.add_argument("--targets", type=int, default=500, help="number of targets to walk to")
-    parser.add_argument(
-        "--mode",
-        choices=MODES,
-        default="base",
-        help="base: fixed settings; ext: random step/ride height per target; dyn2: reset before every target",
-    )
-    parser.add_argument(
-        "--ext-heights",
-        choices=EXT_HEIGHTS,
-        default="one",
-        help="ext: redraw one height per target (the other nominal) or both",
-    )
-    parser.add_argument(
-        "--targets-per-episode", type=int, default=10, help="targets per part file (the unit of resumption)"
-    )
-    parser.add_argument(
-        "--target-time-limit", type=float, default=TARGET_TIME_LIMIT, help="time allowed per target [s]"
-    )
-    parser.add_argument("--target-distance", metavar="LOW,HIGH", help=argparse.SUPPRESS)  # for tests
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
-    add_expert_arguments(parser)
-    _add_terrain_arguments(parser)
-
-
-def run(args: argparse.Namespace) -> int:
-    """``krl collect``: returns the exit status."""
-    from krl.cli import _parse_params, _parse_vector, expert_params_from_args
-
-    distance = TARGET_DISTANCE
-    if args.target_distance:
-        low, high = _parse_vector(args.target_distance, 2, "--target-distance")
-        distance = (low, high)
-    config = CollectConfig(
-        targets=args.targets,
-        mode=args.mode,
-        ext_heights=args.ext_heights,
-        targets_per_episode=args.targets_per_episode,
-        target_time_limit=args.target_time_limit,
-        seed=args.seed,
-        expert=expert_params_from_args(args),
-        terrain=args.terrain,
-        terrain_params=_parse_params(args.param),
-        target_distance=distance,
-    )
-    show = not args.quiet and sys.stderr.isatty()
-    summary = collect_dataset(args.out, config, progress=show).as_dict()
-    if args.json:
-        print(json.dumps(summary, indent=2))
-    else:
-        for key, value in summary.items():
-            print(f"{key}: {value}")
-    return 0
-
-
 __all__ = [
     "EXT_HEIGHTS",
     "MODES",
@@ -723,8 +657,6 @@ __all__ = [
     "CollectSummary",
     "EpisodeStats",
     "SettingsMismatchError",
-    "add_arguments",
     "collect_dataset",
     "collect_episode",
-    "run",
 ]

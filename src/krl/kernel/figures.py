@@ -21,7 +21,6 @@ atomically (temporary file + ``os.replace``) with the writers of :mod:`krl.outpu
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import multiprocessing
@@ -29,7 +28,7 @@ import os
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -40,7 +39,6 @@ from krl.analysis.expert_plots import (
     QUICK_DURATION,
     draw_fit_and_axes,
     fit_line,
-    print_json_summary,
 )
 from krl.control.expert import NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT
 from krl.output import FIG_DPI, csv_bytes, figure_bytes, json_value, write_atomic
@@ -52,14 +50,12 @@ __all__ = [
     "CHOICES",
     "FIGURES",
     "FigureError",
-    "add_arguments",
     "cycle_inputs",
     "fold_cycle",
     "height_metrics",
     "l1_per_axis",
     "make_kernel_figures",
     "predict_feet",
-    "run",
     "stance_lift_metrics",
     "sweep_metrics",
     "symmetry_metrics",
@@ -326,7 +322,7 @@ def predict_feet(kernel, columns: dict[str, np.ndarray]) -> np.ndarray:
 
 
 def cycle_inputs(
-    gait: str = "trot", stance_duration: float = 0.2, points: int = CYCLE_POINTS, leg: int = FR
+    gait: str, stance_duration: float, points: int = CYCLE_POINTS, leg: int = FR
 ) -> dict[str, np.ndarray]:
     """One gait cycle sampled by the phase of ``leg``: ``φ_leg = j / points``, j = 1..points.
 
@@ -354,36 +350,22 @@ def cycle_inputs(
 # --- the expert's labels ------------------------------------------------------------------------------------
 
 
-def _training_expert(kernel) -> dict[str, Any]:
-    return dict(kernel.metadata.get("dataset_settings", {}).get("expert", {}))
-
-
 def _expert_params(kernel, **overrides):
-    from krl.control.expert import ExpertParams
-    from krl.control.mpc import MPCParams
+    from krl.kernel.registry import training_settings
 
-    settings = _training_expert(kernel)
-    mpc = settings.pop("mpc", None)
-    settings.update(overrides)
-    if mpc:
-        mpc = {key: tuple(value) if isinstance(value, list) else value for key, value in mpc.items()}
-        settings["mpc"] = MPCParams(**mpc)
-    return ExpertParams(**settings)
+    return replace(training_settings(kernel).expert, **overrides)
 
 
 def _command_limits(kernel) -> dict[str, tuple[float, float]]:
-    from krl.control.commands import CommandParams
+    from krl.kernel.registry import training_settings
 
-    params = CommandParams()
-    command = kernel.metadata.get("dataset_settings", {}).get("command", {})
-    return {
-        "vx": tuple(command.get("vx_range", params.vx_range)),
-        "vy": tuple(command.get("vy_range", params.vy_range)),
-        "wz": tuple(command.get("yaw_rate_range", params.yaw_rate_range)),
-    }
+    command = training_settings(kernel).command
+    return {"vx": command.vx_range, "vy": command.vy_range, "wz": command.yaw_rate_range}
 
 
-def record_expert(params, seed: int, targets=None, command=None, duration=HOLD_DURATION, time_limit=None):
+def record_expert(
+    params, seed: int, targets=None, command=None, duration=HOLD_DURATION, time_limit=TARGET_TIME_LIMIT
+):
     """Run the MPC expert (to ``targets`` or holding ``command``) and record every control step.
 
     Returns arrays ``time`` (gait time [s]), ``command`` (N, 3), ``phases`` and ``normalised`` (N, 4),
@@ -414,7 +396,7 @@ def record_expert(params, seed: int, targets=None, command=None, duration=HOLD_D
     out: dict[str, Any] = {"error": None, "fell": False, "timed_out": False, "targets_reached": 0}
     try:
         if targets is not None:
-            result = runner.walk_to(np.asarray(targets, dtype=float), target_time_limit=time_limit or 40.0)
+            result = runner.walk_to(np.asarray(targets, dtype=float), target_time_limit=time_limit)
         else:
             result = runner.hold_command(np.asarray(command, dtype=float), duration, ramp=HOLD_RAMP)
         out.update(fell=result.fell, timed_out=result.timed_out, targets_reached=result.targets_reached)
@@ -628,7 +610,7 @@ def _command_sweep(kernel, run: _Run):
     import matplotlib as mpl
     from matplotlib.figure import Figure
 
-    stance_duration = _training_expert(kernel).get("stance_duration", 0.2)
+    stance_duration = _expert_params(kernel).stance_duration
     cycle = cycle_inputs("trot", stance_duration)
     limits = _command_limits(kernel)
     titles = {
@@ -979,7 +961,7 @@ def _heights(ext_kernel, run: _Run):
     import matplotlib as mpl
     from matplotlib.figure import Figure
 
-    stance_duration = _training_expert(ext_kernel).get("stance_duration", 0.2)
+    stance_duration = _expert_params(ext_kernel).stance_duration
     cycle = cycle_inputs("trot", stance_duration)
     command = np.tile(np.array(HEIGHTS_COMMAND), (CYCLE_POINTS, 1))
     sweeps = {
@@ -1324,8 +1306,8 @@ def _velocity(kernel_path: Path, expert_json, run: _Run):
 
 
 def _load_checked(model: str | os.PathLike, variant: str, option: str):
-    from krl.kernel.cli import resolve_model
     from krl.kernel.model import load_kernel
+    from krl.kernel.registry import resolve_model
 
     path = resolve_model(str(model))
     if not path.is_file():
@@ -1420,75 +1402,3 @@ def make_kernel_figures(
         figures[name] = {**{kind: str(path) for kind, path in files.items()}, "table": table}
         _say(run, f"{name}: wrote {files['png']}")
     return {"figures": figures, "workers": workers, "wall_seconds": round(time.perf_counter() - start, 2)}
-
-
-# --- command line -----------------------------------------------------------------------------------------
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of ``krl kernel figures``."""
-    parser.add_argument("which", metavar="WHICH", help=f"figure to make: {', '.join(CHOICES)}")
-    parser.add_argument(
-        "--out", required=True, metavar="DIR", help="output folder (PNG, JSON, CSV per figure)"
-    )
-    parser.add_argument("--model", default="base", help="kernel-base: shipped name or file (default base)")
-    parser.add_argument("--ext-model", default="ext", help="kernel-ext for `heights` (default: shipped ext)")
-    parser.add_argument("--ind-model", default=None, help="optional kernel-ind file for `walk-gait`")
-    parser.add_argument(
-        "--expert-json", default=None, help="the expert's velocity.json (default docs/figures/expert/...)"
-    )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the waypoints and the simulator")
-    parser.add_argument("--workers", type=int, default=None, help="processes for the velocity sweep")
-    parser.add_argument("--quick", action="store_true", help="tiny runs (tests)")
-    parser.add_argument("--json", action="store_true", help="print a JSON summary instead of text")
-
-
-def _headline(name: str, table: dict[str, Any]) -> list[str]:
-    def mm(value) -> str:
-        return "nan" if value is None else f"{1e3 * value:.2f}"
-
-    if name == "trajectories":
-        fr, legs = table["l1_fr"], table["l1_all_legs"]
-        return [f"  L1 FR x/y/z {mm(fr['x'])}/{mm(fr['y'])}/{mm(fr['z'])} mm, all legs {mm(legs['mean'])} mm"]
-    if name == "symmetry":
-        return [
-            f"  {r['source']} vx={r['vx']}: y_asym {mm(r.get('y_asym'))} mm, y_corr {r.get('y_corr')}"
-            for r in table["conditions"]
-        ]
-    if name == "walk-gait":
-        return [
-            f"  {m}: L1 FR x/y/z {mm(r['l1_fr']['x'])}/{mm(r['l1_fr']['y'])}/{mm(r['l1_fr']['z'])} mm, "
-            f"phantom lifts {r['phantom_lift_fraction']}"
-            for m, r in table["results"].items()
-        ]
-    if name in ("velocity", "heights"):
-        return [
-            f"  {key}: slope {fit['slope']}, offset {fit['offset']}"
-            + (f", falls {fit['falls']}" if "falls" in fit else "")
-            for key, fit in table["fits"].items()
-        ]
-    return []
-
-
-def run(args: argparse.Namespace) -> int:
-    """``krl kernel figures``: make the figure(s); print a summary (text or ``--json``)."""
-    summary = make_kernel_figures(
-        args.which,
-        args.out,
-        model=args.model,
-        ext_model=args.ext_model,
-        ind_model=args.ind_model,
-        expert_json=args.expert_json,
-        seed=args.seed,
-        quick=args.quick,
-        workers=args.workers,
-    )
-    if args.json:
-        print_json_summary(summary)
-    else:
-        for name, figure in summary["figures"].items():
-            print(f"{name} ({figure['table']['thesis_figure']}): {figure['png']}")
-            for line in _headline(name, figure["table"]):
-                print(line)
-        print(f"{summary['workers']} worker(s), {summary['wall_seconds']} s")
-    return 0

@@ -32,8 +32,6 @@ from krl.kernel.train import TrainConfig, train_kernel
 from krl.output import write_atomic
 
 STUDIES: tuple[str, ...] = ("variants", "data-size", "stance")
-THESIS_SEEDS: tuple[int, ...] = (150, 215, 345, 556)
-"""The four seeds used throughout the thesis (Section 4.2.1)."""
 
 THESIS_VARIANTS = {  # Table 4.4: mean, std of the validation loss
     "base": (6.2e-4, 6.9e-6),

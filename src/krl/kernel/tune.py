@@ -19,6 +19,7 @@ from typing import Any
 from krl.kernel.model import NetworkConfig
 from krl.kernel.train import TrainConfig, prepare_data, train_kernel
 from krl.output import write_atomic
+from krl.thesis import COMPARISON_EPOCHS
 
 NETWORKS: dict[str, tuple[int, ...]] = {
     "2x128": (128, 128),
@@ -101,7 +102,7 @@ def tune(
         raise ValueError(f"trials must be >= 0, got {trials}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    base = base or TrainConfig(epochs=10, patience=10)
+    base = base or TrainConfig(epochs=COMPARISON_EPOCHS, patience=COMPARISON_EPOCHS)
     url = storage or f"sqlite:///{(out / 'study.db').resolve()}"
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(

@@ -1,0 +1,60 @@
+"""The ``krl`` command. ``krl --help`` lists the subcommands; every error is one line on stderr.
+
+One module per command group registers its subcommands (``register(subparsers)``): :mod:`krl.cli.sim`
+(terrains, render, view, bench), :mod:`krl.cli.expert` (expert run, expert plot), :mod:`krl.cli.data`
+(collect), :mod:`krl.cli.kernel` (kernel …) and :mod:`krl.cli.eval` (evaluate, report); what they share
+is in :mod:`krl.cli.common`. This package is the only place argparse lives, and nothing outside it
+imports it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from krl.cli import data, expert, kernel, sim
+from krl.cli import eval as evaluation
+from krl.cli.common import CliError
+
+EXIT_USAGE = 2
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from krl import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="krl",
+        description="Kernel-based residual learning for quadruped locomotion (Unitree A1, MuJoCo).",
+    )
+    parser.add_argument("--version", action="version", version=f"krl {__version__}")
+    subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sim.register(subparsers)
+    expert.register(subparsers)
+    kernel.register(subparsers)
+    data.register(subparsers)
+    evaluation.register(subparsers)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``krl`` command; returns the exit status."""
+    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = parser.parse_args(argv)
+    args.argv = argv
+    from krl.eval.evaluate import EvaluationError
+    from krl.sim.render import RenderError
+    from krl.sim.robot import SimulationUnstableError
+
+    try:
+        return args.func(args)
+    except (CliError, ValueError, RenderError, SimulationUnstableError, EvaluationError, OSError) as error:
+        print(f"krl: error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("krl: interrupted", file=sys.stderr)
+        return 130
+
+
+__all__ = ["CliError", "build_parser", "main"]

@@ -1,0 +1,244 @@
+"""What the ``krl`` command groups share: the output printer, value parsers, option groups and the run loop
+of every ``… run`` command.
+
+Options that set a dataclass field default to ``None``; a command passes on only the options given
+(:func:`given`), so the dataclass is the one home of each default and help texts read it from there
+(:func:`default_of`); the same holds for a domain function's keyword defaults.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import inspect
+import json
+from collections.abc import Sequence
+from typing import Any
+
+
+class CliError(Exception):
+    """A user-facing error: printed as ``krl: error: <message>`` with exit status 2."""
+
+
+def emit(result: dict[str, Any], as_json: bool) -> None:
+    """Print a command's result: indented JSON, or one ``key: value`` line per entry (a nested mapping
+    indented under its key, a list of mappings one item per line)."""
+    if as_json:
+        print(json.dumps(result, indent=2))
+    else:
+        print("\n".join(_text_lines(result, "")))
+
+
+def _text_lines(result: dict[str, Any], indent: str) -> list[str]:
+    lines = []
+    for key, value in result.items():
+        if isinstance(value, dict):
+            lines += [f"{indent}{key}:", *_text_lines(value, indent + "  ")]
+        elif isinstance(value, list) and value and all(isinstance(item, dict) for item in value):
+            lines.append(f"{indent}{key}:")
+            lines += [f"{indent}  - " + ", ".join(f"{k}: {v}" for k, v in item.items()) for item in value]
+        else:
+            lines.append(f"{indent}{key}: {value}")
+    return lines
+
+
+def print_json_summary(summary: dict[str, Any], digest=None) -> None:
+    """Print a figure run's summary as JSON: each figure's paths without its full table, plus
+    ``digest(table)`` (a dict) where given. Shared by ``krl expert plot`` and ``krl kernel figures``."""
+    printable = {
+        **summary,
+        "figures": {
+            name: {key: value for key, value in figure.items() if key != "table"}
+            | (digest(figure["table"]) if digest else {})
+            for name, figure in summary["figures"].items()
+        },
+    }
+    print(json.dumps(printable, indent=2, ensure_ascii=False))
+
+
+def given(**options: Any) -> dict[str, Any]:
+    """The options that were given (not ``None``), for a dataclass or a function to fill its fields
+    from while keeping its own defaults for the others."""
+    return {key: value for key, value in options.items() if value is not None}
+
+
+def default_of(owner: Any, name: str) -> Any:
+    """The default of field ``name`` of dataclass ``owner``, or of parameter ``name`` of function
+    ``owner`` (for help texts)."""
+    if dataclasses.is_dataclass(owner):
+        for item in dataclasses.fields(owner):
+            if item.name == name and item.default is not dataclasses.MISSING:
+                return item.default
+            if item.name == name and item.default_factory is not dataclasses.MISSING:
+                return item.default_factory()
+    else:
+        parameter = inspect.signature(owner).parameters.get(name)
+        if parameter is not None and parameter.default is not inspect.Parameter.empty:
+            return parameter.default
+    raise KeyError(f"{owner.__name__} has no {name!r} with a default")
+
+
+def parse_params(items: Sequence[str] | None) -> dict[str, Any]:
+    """``["max_height=0.04", "num_steps=6"]`` -> ``{"max_height": 0.04, "num_steps": 6}``."""
+    params: dict[str, Any] = {}
+    for item in items or ():
+        key, sep, text = item.partition("=")
+        if not sep or not key:
+            raise CliError(f"--param expects KEY=VALUE, got {item!r}")
+        try:
+            value: Any = int(text)
+        except ValueError:
+            try:
+                value = float(text)
+            except ValueError:
+                value = text
+        params[key.strip()] = value
+    return params
+
+
+def parse_vector(text: str, size: int, what: str) -> list[float]:
+    """``"0.5,0,0"`` -> ``[0.5, 0.0, 0.0]``; ``size`` numbers exactly, else a :class:`CliError` naming
+    the option ``what``."""
+    try:
+        values = [float(part) for part in text.split(",")]
+    except ValueError:
+        raise CliError(f"{what} expects {size} comma-separated numbers, got {text!r}") from None
+    if len(values) != size:
+        raise CliError(f"{what} expects {size} comma-separated numbers, got {text!r}")
+    return values
+
+
+def parse_ints(text: str, option: str) -> list[int]:
+    """``"150,215"`` -> ``[150, 215]`` (empty parts skipped); a ValueError naming ``option`` otherwise."""
+    try:
+        return [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise ValueError(f"{option} expects comma-separated integers, got {text!r}") from None
+
+
+# --- option groups -----------------------------------------------------------------------------------
+
+
+def add_terrain_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--terrain``, ``--param KEY=VALUE`` and ``--seed``."""
+    parser.add_argument("--terrain", default="flat", help="terrain name (see `krl terrains`)")
+    parser.add_argument(
+        "--param", action="append", metavar="KEY=VALUE", help="terrain parameter override (repeatable)"
+    )
+    parser.add_argument(
+        "--seed", type=int, default=0, help="seed of the run's random draws (terrain, waypoints)"
+    )
+
+
+def build_sim(args: argparse.Namespace):
+    """The simulator on :func:`add_terrain_arguments`' terrain."""
+    from krl.sim.model import build_model
+    from krl.sim.robot import A1Sim
+
+    return A1Sim(build_model(args.terrain, parse_params(args.param), args.seed))
+
+
+def add_expert_arguments(parser: argparse.ArgumentParser) -> None:
+    """The MPC expert's settings, shared by every command that runs the expert (defaults: ExpertParams)."""
+    from krl.control.expert import ExpertParams
+
+    def default(name: str) -> str:
+        return f"(default {default_of(ExpertParams, name)})"
+
+    parser.add_argument("--gait", help=f"gait of Table 4.1 (walk, trot, bound) {default('gait')}")
+    parser.add_argument("--stance-duration", type=float, help=f"τ_stance [s] {default('stance_duration')}")
+    parser.add_argument(
+        "--step-height", type=float, help=f"swing apex height [m], 0.05-0.18 {default('step_height')}"
+    )
+    parser.add_argument(
+        "--ride-height", type=float, help=f"base height [m], 0.18-0.28 {default('ride_height')}"
+    )
+
+
+def expert_params_from_args(args: argparse.Namespace):
+    """ExpertParams from :func:`add_expert_arguments`' options (validated by ExpertParams)."""
+    from krl.control.expert import ExpertParams
+
+    return ExpertParams(
+        **given(
+            gait=args.gait,
+            stance_duration=args.stance_duration,
+            step_height=args.step_height,
+            ride_height=args.ride_height,
+        )
+    )
+
+
+def add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of every ``… run`` command: waypoints or a fixed command, video, JSON."""
+    from krl.runner import TARGET_TIME_LIMIT
+
+    add_terrain_arguments(parser)
+    parser.add_argument(
+        "--targets", type=int, default=5, help="number of random waypoints (seeded by --seed)"
+    )
+    parser.add_argument("--target", action="append", metavar="X,Y", help="a given waypoint (repeatable)")
+    parser.add_argument(
+        "--target-time-limit",
+        type=float,
+        help=f"time allowed per waypoint [s] (default {TARGET_TIME_LIMIT:g})",
+    )
+    parser.add_argument(
+        "--command", metavar="VX,VY,WZ", help="walk at a fixed command instead of to waypoints"
+    )
+    parser.add_argument("--duration", type=float, default=10.0, help="with --command: run length [s]")
+    parser.add_argument("--video", help="write an MP4 of the run")
+    parser.add_argument("--json", action="store_true", help="print JSON")
+
+
+def run_controller(args: argparse.Namespace, controller, step_hook=None) -> dict[str, Any]:
+    """Run ``controller`` as :func:`add_run_arguments`' options say; returns the summary printed by ``run``.
+
+    ``step_hook()`` is called after every control step (e.g. to collect timings).
+    """
+    import numpy as np
+
+    from krl.runner import Runner, random_targets
+
+    sim = build_sim(args)
+    recorder = None
+    if args.video:
+        from krl.sim.video import VideoRecorder
+
+        recorder = VideoRecorder(sim, args.video)
+
+    def on_step(record) -> None:
+        if step_hook is not None:
+            step_hook()
+        if recorder is not None:
+            recorder.capture()
+
+    runner = Runner(sim, controller, on_step=on_step)
+    try:
+        if args.command is not None:
+            command = np.array(parse_vector(args.command, 3, "--command"))
+            result = runner.hold_command(command, args.duration)
+            targets = np.zeros((0, 2))
+        else:
+            if args.target:
+                targets = np.array([parse_vector(t, 2, "--target") for t in args.target])
+            else:
+                targets = random_targets(np.random.default_rng(args.seed), args.targets, sim.terrain.spawn_xy)
+            result = runner.walk_to(targets, **given(target_time_limit=args.target_time_limit))
+    finally:
+        if recorder is not None:
+            recorder.close()
+    summary: dict[str, Any] = {
+        "targets": len(targets),
+        "targets_reached": result.targets_reached,
+        "fell": result.fell,
+        "timed_out": result.timed_out,
+        "sim_seconds": round(result.sim_seconds, 3),
+        "wall_seconds": round(result.wall_seconds, 3),
+        "real_time_factor": round(result.sim_seconds / max(result.wall_seconds, 1e-9), 2),
+        "mean_velocity": [round(v, 4) for v in result.mean_velocity()],
+        "terrain": sim.terrain.name,
+    }
+    if args.video:
+        summary["video"] = str(args.video)
+    return summary

@@ -1,0 +1,193 @@
+"""``krl evaluate`` and ``krl report`` (push sweep defaults: :class:`krl.eval.episodes.PushSweep`)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shlex
+import sys
+from pathlib import Path
+from typing import Any
+
+from krl.cli.common import default_of, emit, given, parse_ints
+from krl.eval.courses import SHIPPED_COURSES, THESIS_COURSES
+
+
+def _magnitudes(text: str) -> tuple[float, ...]:
+    """``250:900:50`` (inclusive range) or ``300,500`` -> magnitudes [N]."""
+    try:
+        if ":" in text:
+            low, high, step = (float(part) for part in text.split(":"))
+            if step <= 0 or high < low:
+                raise ValueError
+            count = round((high - low) / step) + 1
+            return tuple(low + step * index for index in range(count))
+        return tuple(float(part) for part in text.split(","))
+    except ValueError:
+        raise ValueError(
+            f"--magnitudes expects LOW:HIGH:STEP or a comma list of forces [N], got {text!r}"
+        ) from None
+
+
+def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
+    from krl.eval.episodes import PushSweep
+    from krl.thesis import THESIS_SEEDS
+
+    magnitudes = default_of(PushSweep, "magnitudes")
+
+    parser.add_argument(
+        "--controller",
+        action="append",
+        required=True,
+        metavar="SPEC",
+        help="expert, expert:stance=0.3, kernel, kernel:ext, kernel:PATH (repeatable)",
+    )
+    parser.add_argument(
+        "--course",
+        action="append",
+        metavar="NAME_OR_PATH",
+        help=f"a shipped course ({', '.join(SHIPPED_COURSES)}), a course file, `thesis` (the four of "
+        "Tables 5.1-5.4) or `all` (repeatable; default: thesis, unless --push-sweep alone)",
+    )
+    parser.add_argument("--push-sweep", action="store_true", help="run the push robustness sweep (Table 5.5)")
+    parser.add_argument(
+        "--magnitudes",
+        help="push sweep forces [N]: LOW:HIGH:STEP or a list "
+        f"(default {len(magnitudes)} forces, {min(magnitudes):g} to {max(magnitudes):g})",
+    )
+    parser.add_argument(
+        "--attempts",
+        type=int,
+        help=f"push sweep attempts per magnitude (default {default_of(PushSweep, 'attempts')})",
+    )
+    parser.add_argument(
+        "--push-seed",
+        type=int,
+        help=f"seed of the push sweep's random pushes (default {default_of(PushSweep, 'seed')})",
+    )
+    parser.add_argument(
+        "--seeds",
+        default=",".join(map(str, THESIS_SEEDS)),
+        help="run seeds, for controllers that depend on a seed (the agent)",
+    )
+    parser.add_argument(
+        "--workers", type=int, default=os.cpu_count() or 1, help="processes (default: all cores)"
+    )
+    parser.add_argument("--out", default="runs/eval", help="results directory (resumable)")
+    parser.add_argument(
+        "--video", metavar="DIR", help="record MP4s of each course's first run (or of --video-all)"
+    )
+    parser.add_argument("--video-all", action="store_true", help="with --video: record every course run")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+
+
+def _courses(names: list[str] | None):
+    from krl.eval.courses import load_course
+
+    expanded: list[str] = []
+    for name in names or []:
+        expanded += (
+            list(THESIS_COURSES) if name == "thesis" else list(SHIPPED_COURSES) if name == "all" else [name]
+        )
+    return [load_course(name) for name in dict.fromkeys(expanded)]
+
+
+def run_evaluate(args: argparse.Namespace) -> int:
+    from krl.eval import evaluate
+    from krl.eval.controllers import parse_controller
+    from krl.eval.episodes import PushSweep
+    from krl.progress import progress_bar
+
+    specs = [parse_controller(text) for text in args.controller]
+    names = args.course if args.course or args.push_sweep else ["thesis"]
+    courses = _courses(names)
+    seeds = parse_ints(args.seeds, "--seeds")
+    sweep = None
+    if args.push_sweep:
+        magnitudes = None if args.magnitudes is None else _magnitudes(args.magnitudes)
+        sweep = PushSweep(**given(magnitudes=magnitudes, attempts=args.attempts, seed=args.push_seed))
+    out = Path(args.out)
+    video = Path(args.video) if args.video else None
+    tasks = []
+    for spec in specs:
+        tasks += evaluate.course_tasks(spec, courses, seeds, video, args.video_all)
+        if sweep is not None:
+            tasks += evaluate.push_tasks(spec, sweep, video)
+    command = "krl " + shlex.join(args.argv)
+    for spec in specs:
+        _remember_command(out / spec.label / "commands.txt", command)
+
+    counts = {"ran": 0, "stored": 0}
+    with progress_bar(not args.quiet, unit="runs", status=True) as bar:
+        task_id = bar.add_task("evaluate", total=len(tasks), status="")
+
+        def on_done(task, record, ran: bool) -> None:
+            counts["ran" if ran else "stored"] += 1
+            metrics = record["metrics"]
+            status = f"{task.controller.label} {task.key}: {metrics['targets_reached']}/{metrics['targets']}"
+            bar.update(task_id, advance=1, status=status + (" fell" if metrics["fell"] else ""))
+
+        try:
+            records = evaluate.execute(tasks, out, args.workers, on_done)
+        except KeyboardInterrupt:
+            done = counts["ran"] + counts["stored"]
+            print(
+                f"krl: interrupted after {done} of {len(tasks)} runs; re-run the command to finish",
+                file=sys.stderr,
+            )
+            return 130
+    summary: dict[str, Any] = {"results": str(out), "runs": len(tasks), **counts, "controllers": {}}
+    for spec in specs:
+        mine = [r for t, r in zip(tasks, records, strict=True) if t.controller == spec]
+        entry: dict[str, Any] = {}
+        for course in courses:
+            entry[course.name] = evaluate.summarise_course(
+                [r for r in mine if r.get("course") == course.name]
+            )
+        if sweep is not None:
+            entry["push"] = evaluate.summarise_push([r for r in mine if "magnitude" in r])
+        entry["wall_seconds"] = round(sum(r["metrics"]["wall_seconds"] for r in mine), 1)
+        summary["controllers"][spec.label] = entry
+    emit(summary, args.json)
+    return 0
+
+
+def _remember_command(path: Path, command: str) -> None:
+    """Append ``command`` to the controller's list of evaluate commands (once)."""
+    from krl.output import write_atomic
+
+    known = path.read_text().splitlines() if path.exists() else []
+    if command not in known:
+        write_atomic(path, "\n".join([*known, command]) + "\n")
+
+
+def add_report_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--results", default="runs/eval", help="the krl evaluate results directory")
+    parser.add_argument("--out", default="docs/results", help="where the tables and plots go")
+    parser.add_argument(
+        "--controller", action="append", metavar="LABEL", help="only these (default: all found)"
+    )
+    parser.add_argument("--json", action="store_true")
+
+
+def run_report(args: argparse.Namespace) -> int:
+    from krl.eval.report import write_report
+
+    result = write_report(Path(args.results), Path(args.out), args.controller, "krl " + shlex.join(args.argv))
+    emit({"written": result["written"]}, args.json)
+    return 0
+
+
+def register(subparsers) -> None:
+    """Add ``krl evaluate`` and ``krl report`` to the main parser's subcommands."""
+    p = subparsers.add_parser(
+        "evaluate", help="score controllers on the courses or the push sweep (resumable)"
+    )
+    add_evaluate_arguments(p)
+    p.set_defaults(func=run_evaluate)
+    p = subparsers.add_parser(
+        "report", help="Tables 5.1-5.5 and the evaluation plots from krl evaluate's results"
+    )
+    add_report_arguments(p)
+    p.set_defaults(func=run_report)

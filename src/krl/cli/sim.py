@@ -1,0 +1,141 @@
+"""``krl terrains``, ``krl render``, ``krl view`` and ``krl bench``: the simulator on its own."""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from krl.cli.common import CliError, add_terrain_arguments, build_sim, default_of, emit, given
+
+
+def _settle(sim, seconds: float) -> None:
+    from krl.robots.a1.constants import STANDING_JOINT_ANGLES
+    from krl.timing import CONTROL_DT
+
+    for _ in range(round(seconds / CONTROL_DT)):
+        sim.step(STANDING_JOINT_ANGLES)
+
+
+def cmd_terrains(args: argparse.Namespace) -> int:
+    from krl.sim.terrains import TERRAIN_NAMES, terrain_param_defaults
+
+    for name in TERRAIN_NAMES:
+        defaults = ", ".join(f"{key}={value}" for key, value in terrain_param_defaults(name).items())
+        print(f"{name:18s} {defaults}")
+    return 0
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from krl.sim.render import CameraView, FrameRenderer, write_png
+
+    if args.course:
+        import numpy as np
+
+        from krl.eval.courses import load_course
+        from krl.sim.robot import A1Sim
+
+        course = load_course(args.course)
+        sim = A1Sim(course.build(markers=True))
+        x, y, yaw = course.starts[0]
+        sim.reset(xy=(x, y), yaw=yaw)
+        points = np.array([*course.waypoints, *(s[:2] for s in course.starts)])
+        low, high = points.min(axis=0), points.max(axis=0)
+        centre = (*((low + high) / 2), float(sim.terrain.height(*((low + high) / 2))))
+        distance = 0.8 * float(np.max(high - low)) + 1.5 if args.distance is None else args.distance
+        elevation = -35.0 if args.elevation is None else args.elevation
+        view = CameraView(distance, args.azimuth, elevation, lookat=centre)
+    else:
+        sim = build_sim(args)
+        distance = 3.0 if args.distance is None else args.distance
+        view = CameraView(distance, args.azimuth, -25.0 if args.elevation is None else args.elevation)
+    _settle(sim, args.settle)
+    with FrameRenderer(sim.model, args.width, args.height, view) as renderer:
+        image = renderer.render(sim.data)
+    path = write_png(image, args.out)
+    print(f"wrote {path} ({args.width}x{args.height}, terrain {sim.terrain.name}, t={sim.time:.2f} s)")
+    return 0
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    from krl.sim.render import has_display
+
+    if not has_display():
+        raise CliError(
+            "`krl view` needs a display (DISPLAY/WAYLAND_DISPLAY is unset); on a headless machine use "
+            "`krl render --terrain NAME --out FILE.png`"
+        )
+    import mujoco.viewer
+
+    from krl.robots.a1.constants import STANDING_JOINT_ANGLES
+    from krl.timing import CONTROL_DT
+
+    sim = build_sim(args)
+    with mujoco.viewer.launch_passive(sim.model, sim.data) as viewer:
+        while viewer.is_running():
+            start = time.perf_counter()
+            sim.step(STANDING_JOINT_ANGLES)
+            viewer.sync()
+            time.sleep(max(0.0, CONTROL_DT - (time.perf_counter() - start)))
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    if args.target == "sim":
+        from krl.bench.sim import bench_sim
+
+        result = bench_sim(**given(steps=args.steps, repeats=args.repeats))
+    elif args.target == "mpc":
+        from krl.bench.mpc import bench_mpc
+
+        result = bench_mpc(**given(seconds=args.seconds))
+    else:  # argparse restricts the choices
+        raise CliError(f"unknown benchmark {args.target!r}")
+    emit(result, args.json)
+    return 0
+
+
+def register(subparsers) -> None:
+    """Add ``krl terrains``, ``render``, ``view`` and ``bench`` to the main parser's subcommands."""
+    p = subparsers.add_parser("terrains", help="list the terrains and their default parameters")
+    p.set_defaults(func=cmd_terrains)
+
+    p = subparsers.add_parser("render", help="render the robot standing on a terrain to a PNG (headless)")
+    add_terrain_arguments(p)
+    p.add_argument("--out", required=True, help="output PNG path")
+    p.add_argument("--width", type=int, default=960)
+    p.add_argument("--height", type=int, default=640)
+    p.add_argument("--settle", type=float, default=0.5, help="seconds of standing before the frame [s]")
+    p.add_argument(
+        "--course", help="render a course (name or file) from above, waypoints as red posts, robot at start 0"
+    )
+    p.add_argument("--distance", type=float, help="camera distance [m] (default 3; a course: fitted)")
+    p.add_argument("--azimuth", type=float, default=135.0, help="camera azimuth [deg]")
+    p.add_argument("--elevation", type=float, help="camera elevation [deg] (default -25; -35 for a course)")
+    p.set_defaults(func=cmd_render)
+
+    p = subparsers.add_parser("view", help="open MuJoCo's interactive viewer on a terrain (needs a display)")
+    add_terrain_arguments(p)
+    p.set_defaults(func=cmd_view)
+
+    from krl.bench.mpc import bench_mpc
+    from krl.bench.sim import bench_sim
+
+    p = subparsers.add_parser("bench", help="run a benchmark and print its figures")
+    p.add_argument("target", choices=["sim", "mpc"], help="what to benchmark")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.add_argument(
+        "--steps",
+        type=int,
+        help=f"sim: control steps per timed loop (default {default_of(bench_sim, 'steps')})",
+    )
+    p.add_argument(
+        "--repeats",
+        type=int,
+        help=f"sim: alternating timed loops per variant (default {default_of(bench_sim, 'repeats')})",
+    )
+    p.add_argument(
+        "--seconds",
+        type=float,
+        help=f"mpc: simulated seconds of walking (default {default_of(bench_mpc, 'seconds'):g})",
+    )
+    p.set_defaults(func=cmd_bench)

@@ -1,0 +1,13 @@
+"""Constants of the thesis's protocol that more than one part of krl follows (one home for each)."""
+
+from __future__ import annotations
+
+THESIS_SEEDS: tuple[int, ...] = (150, 215, 345, 556)
+"""The four seeds used throughout the thesis (Section 4.2.1): training seeds of the kernel studies and
+run seeds of the evaluation."""
+
+COMPARISON_EPOCHS: int = 10
+"""Training epochs per run when the thesis compares kernels: each tuning trial (Table A.2) and each run
+of Tables 4.3-4.5."""
+
+__all__ = ["COMPARISON_EPOCHS", "THESIS_SEEDS"]
