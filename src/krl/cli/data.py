@@ -52,15 +52,15 @@ def add_collect_arguments(parser: argparse.ArgumentParser) -> None:
     add_terrain_arguments(parser)
 
 
-def cmd_collect(args: argparse.Namespace) -> int:
-    """``krl collect``: returns the exit status."""
-    from krl.data.collect import CollectConfig, collect_dataset
+def collect_config_from_args(args: argparse.Namespace):
+    """The CollectConfig of :func:`add_collect_arguments`' options (fields not given keep their defaults)."""
+    from krl.data.collect import CollectConfig
 
     distance = None
     if args.target_distance:
         low, high = parse_vector(args.target_distance, 2, "--target-distance")
         distance = (low, high)
-    config = CollectConfig(
+    return CollectConfig(
         **given(
             targets=args.targets,
             mode=args.mode,
@@ -74,6 +74,13 @@ def cmd_collect(args: argparse.Namespace) -> int:
         terrain=args.terrain,
         terrain_params=parse_params(args.param),
     )
+
+
+def cmd_collect(args: argparse.Namespace) -> int:
+    """``krl collect``: returns the exit status."""
+    from krl.data.collect import collect_dataset
+
+    config = collect_config_from_args(args)
     show = not args.quiet and sys.stderr.isatty()
     emit(collect_dataset(args.out, config, progress=show).as_dict(), args.json)
     return 0

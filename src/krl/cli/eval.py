@@ -93,20 +93,24 @@ def _courses(names: list[str] | None):
     return [load_course(name) for name in dict.fromkeys(expanded)]
 
 
+def push_sweep_from_args(args: argparse.Namespace):
+    """The PushSweep of ``krl evaluate``'s push options (fields not given keep their defaults)."""
+    from krl.eval.episodes import PushSweep
+
+    magnitudes = None if args.magnitudes is None else _magnitudes(args.magnitudes)
+    return PushSweep(**given(magnitudes=magnitudes, attempts=args.attempts, seed=args.push_seed))
+
+
 def run_evaluate(args: argparse.Namespace) -> int:
     from krl.eval import evaluate
     from krl.eval.controllers import parse_controller
-    from krl.eval.episodes import PushSweep
     from krl.progress import progress_bar
 
     specs = [parse_controller(text) for text in args.controller]
     names = args.course if args.course or args.push_sweep else ["thesis"]
     courses = _courses(names)
     seeds = parse_ints(args.seeds, "--seeds")
-    sweep = None
-    if args.push_sweep:
-        magnitudes = None if args.magnitudes is None else _magnitudes(args.magnitudes)
-        sweep = PushSweep(**given(magnitudes=magnitudes, attempts=args.attempts, seed=args.push_seed))
+    sweep = push_sweep_from_args(args) if args.push_sweep else None
     out = Path(args.out)
     video = Path(args.video) if args.video else None
     tasks = []
