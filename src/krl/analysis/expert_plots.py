@@ -26,12 +26,10 @@ from __future__ import annotations
 
 import json
 import math
-import multiprocessing
 import os
 import sys
 import time
 from collections.abc import Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -40,6 +38,7 @@ import numpy as np
 
 from krl.control.expert import NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT
 from krl.output import FIG_DPI, csv_bytes, figure_bytes, json_value, write_atomic
+from krl.parallel import run_jobs
 from krl.runner import HOLD_RAMP, HOLD_SETTLE, TARGET_DISTANCE, TARGET_TIME_LIMIT
 from krl.timing import CONTROL_DT
 
@@ -455,37 +454,6 @@ def _plan(which: Sequence[str], settings: Settings) -> dict[str, list[tuple[Any,
 # --- running ----------------------------------------------------------------------------------------
 
 
-class _Progress:
-    """A rich progress bar on a terminal; one line per finished condition on stderr either way."""
-
-    def __init__(self, total: int, enabled: bool = True) -> None:
-        self.total = total
-        self.done = 0
-        self.enabled = enabled
-        self._bar = None
-        if enabled and sys.stderr.isatty():
-            from krl.progress import progress_bar
-
-            self._bar = progress_bar(enabled, transient=True)
-            self._task = self._bar.add_task("expert conditions", total=total)
-            self._bar.start()
-
-    def finished(self, line: str) -> None:
-        self.done += 1
-        if not self.enabled:
-            return
-        text = f"[{self.done}/{self.total}] {line}"
-        if self._bar is not None:
-            self._bar.console.print(text, markup=False, highlight=False)
-            self._bar.advance(self._task)
-        else:
-            print(text, file=sys.stderr, flush=True)
-
-    def close(self) -> None:
-        if self._bar is not None:
-            self._bar.stop()
-
-
 def _summary_line(job: Job, result: dict[str, Any]) -> str:
     if isinstance(job, WalkJob):
         detail = (
@@ -499,30 +467,23 @@ def _summary_line(job: Job, result: dict[str, Any]) -> str:
     return f"{job.label}: {detail}{flags} ({result['wall_seconds']:.1f} s)"
 
 
-def _execute(jobs: list[Job], workers: int, progress: _Progress) -> dict[Job, dict[str, Any]]:
-    """Run each distinct job once: in this process for one worker, else in a spawn-started pool."""
-    results: dict[Job, dict[str, Any]] = {}
+def _execute(jobs: list[Job], workers: int, progress: bool) -> dict[Job, dict[str, Any]]:
+    """Run each distinct job once through :func:`krl.parallel.run_jobs` (in this process for one worker);
+    with ``progress``, a bar on a terminal and one line per finished condition on stderr either way."""
     # longest first: waypoint walks before fixed-command holds
     order = sorted(jobs, key=lambda job: isinstance(job, HoldJob))
-    if workers <= 1 or len(order) <= 1:
-        for job in order:
-            results[job] = _run_job(job)
-            progress.finished(_summary_line(job, results[job]))
-        return results
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=min(workers, len(order)), mp_context=context) as pool:
-        pending: dict[Future, Job] = {pool.submit(_run_job, job): job for job in order}
-        try:
-            while pending:
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for future in done:
-                    job = pending.pop(future)
-                    results[job] = future.result()
-                    progress.finished(_summary_line(job, results[job]))
-        except BaseException:
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
-    return results
+    done = 0
+
+    def report(index: int, result: dict[str, Any]) -> None:
+        nonlocal done
+        done += 1
+        if progress:
+            print(f"[{done}/{len(order)}] {_summary_line(order[index], result)}", file=sys.stderr, flush=True)
+
+    results = run_jobs(
+        _run_job, order, workers, on_result=report, progress="expert conditions" if progress else None
+    )
+    return dict(zip(order, results, strict=True))
 
 
 # --- output -----------------------------------------------------------------------------------------
@@ -822,11 +783,7 @@ def make_figures(
     jobs = list(dict.fromkeys(job for conditions in plan.values() for _, job in conditions))
     out_dir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    reporter = _Progress(len(jobs), enabled=progress)
-    try:
-        results = _execute(jobs, workers, reporter)
-    finally:
-        reporter.close()
+    results = _execute(jobs, workers, progress)
     figures: dict[str, Any] = {}
     for name, conditions in plan.items():
         if name == "velocity":

@@ -23,11 +23,9 @@ from __future__ import annotations
 
 import json
 import math
-import multiprocessing
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -42,6 +40,7 @@ from krl.analysis.expert_plots import (
 )
 from krl.control.expert import NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT
 from krl.output import FIG_DPI, csv_bytes, figure_bytes, json_value, write_atomic
+from krl.parallel import run_jobs
 from krl.robots.a1.constants import FOOT_RADIUS, LEG_NAMES, NUM_LEGS
 from krl.runner import HOLD_RAMP, HOLD_SETTLE, TARGET_DISTANCE, TARGET_TIME_LIMIT
 from krl.timing import CONTROL_DT
@@ -1166,12 +1165,7 @@ def _velocity(kernel_path: Path, expert_json, run: _Run):
     # the zero command appears in all three sweeps: run each distinct command once
     jobs = list(dict.fromkeys((str(kernel_path), command, duration, run.seed) for _, _, command in points))
     _say(run, f"velocity: {len(jobs)} kernel holds of {duration:g} s, {run.workers} worker(s) ...")
-    if run.workers <= 1 or len(jobs) <= 1:
-        outcomes = [_kernel_hold(job) for job in jobs]
-    else:
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=min(run.workers, len(jobs)), mp_context=context) as pool:
-            outcomes = list(pool.map(_kernel_hold, jobs))
+    outcomes = run_jobs(_kernel_hold, jobs, run.workers, progress="velocity holds" if run.progress else None)
     by_command = {job[1]: outcome for job, outcome in zip(jobs, outcomes, strict=True)}
     expert, expert_source = expert_json
     expert_rows = {(r["axis"], round(r["commanded"], 6)): r for r in (expert or {}).get("conditions", [])}
