@@ -15,7 +15,7 @@ from krl.data.collect import CollectConfig
 from krl.eval.episodes import PushSweep
 from krl.kernel.model import NetworkConfig
 from krl.kernel.train import TrainConfig
-from krl.runner import TARGET_TIME_LIMIT
+from krl.task import TARGET_TIME_LIMIT
 
 TRAIN_OPTIONS = {
     "--variant": (TrainConfig, "variant"),

@@ -171,7 +171,7 @@ def expert_params_from_args(args: argparse.Namespace):
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of every ``… run`` command: waypoints or a fixed command, video, JSON."""
-    from krl.runner import TARGET_TIME_LIMIT
+    from krl.task import TARGET_TIME_LIMIT
 
     add_terrain_arguments(parser)
     parser.add_argument(
