@@ -32,15 +32,10 @@ def cmd_expert_run(args: argparse.Namespace) -> int:
 
 
 def add_plot_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of ``krl expert plot`` (defaults: :func:`krl.analysis.expert_plots.make_figures`)."""
-    from krl.analysis.expert_plots import (
-        CHOICES,
-        DEFAULT_DURATION,
-        DEFAULT_TARGETS,
-        QUICK_DURATION,
-        QUICK_TARGETS,
-        make_figures,
-    )
+    """The options of ``krl expert plot`` (defaults: :func:`krl.analysis.expert.driver.make_figures`)."""
+    from krl.analysis.common import DEFAULT_DURATION, QUICK_DURATION
+    from krl.analysis.expert.driver import make_figures
+    from krl.analysis.expert.plan import CHOICES, DEFAULT_TARGETS, QUICK_TARGETS
 
     parser.add_argument("which", metavar="WHICH", help=f"figure to make: {', '.join(CHOICES)}")
     parser.add_argument(
@@ -99,7 +94,7 @@ def _plot_text_summary(summary: dict[str, Any]) -> str:
 
 def cmd_expert_plot(args: argparse.Namespace) -> int:
     """``krl expert plot``: make the figure(s); print a summary (text or ``--json``)."""
-    from krl.analysis.expert_plots import make_figures
+    from krl.analysis.expert.driver import make_figures
 
     summary = make_figures(
         args.which,

@@ -362,8 +362,10 @@ def run_run(args: argparse.Namespace) -> int:
 
 
 def add_figures_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of ``krl kernel figures`` (defaults: :func:`krl.kernel.figures.make_kernel_figures`)."""
-    from krl.kernel.figures import CHOICES, make_kernel_figures
+    """The options of ``krl kernel figures``
+    (defaults: :func:`krl.analysis.kernel.driver.make_kernel_figures`)."""
+    from krl.analysis.kernel.context import CHOICES
+    from krl.analysis.kernel.driver import make_kernel_figures
 
     def default(name: str) -> str:
         return f"(default {default_of(make_kernel_figures, name)})"
@@ -415,7 +417,7 @@ def _figure_headline(name: str, table: dict[str, Any]) -> list[str]:
 
 def run_figures(args: argparse.Namespace) -> int:
     """``krl kernel figures``: make the figure(s); print a summary (text or ``--json``)."""
-    from krl.kernel.figures import make_kernel_figures
+    from krl.analysis.kernel.driver import make_kernel_figures
 
     summary = make_kernel_figures(
         args.which,

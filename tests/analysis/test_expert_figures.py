@@ -1,5 +1,5 @@
-"""`krl expert plot`: the CoM metric on hand-made trajectories, the line fit, quick runs of every figure,
-argument errors."""
+"""`krl expert plot` (:mod:`krl.analysis.expert`): the CoM metric on hand-made trajectories, the line fit,
+quick runs of every figure, argument errors."""
 
 import argparse
 import csv
@@ -9,16 +9,26 @@ import math
 import numpy as np
 import pytest
 
-from krl.analysis import expert_plots as ep
+from krl.analysis.common import fit_line
+from krl.analysis.expert.driver import PlotError, make_figures
+from krl.analysis.expert.metrics import (
+    com_deviation,
+    com_metrics,
+    detrend_kernel,
+    detrend_window_steps,
+    gait_cycle,
+    moving_average_kernel,
+)
+from krl.analysis.expert.plan import FIGURES, THESIS_FIGURE
 from krl.cli import expert as expert_cli
 from krl.timing import CONTROL_DT
 
 
 def test_nominal_heights_are_the_expert_defaults():
-    from krl.control.expert import ExpertParams
+    from krl.control.expert import NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT, ExpertParams
 
     params = ExpertParams()
-    assert (ep.NOMINAL_RIDE_HEIGHT, ep.NOMINAL_STEP_HEIGHT) == (params.ride_height, params.step_height)
+    assert (NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT) == (params.ride_height, params.step_height)
 
 
 # --- metric -------------------------------------------------------------------------------------------
@@ -26,9 +36,9 @@ def test_nominal_heights_are_the_expert_defaults():
 
 @pytest.mark.parametrize(("stance", "steps"), [(0.3, 200), (0.25, 250), (0.2, 200)])
 def test_detrend_window_is_whole_gait_cycles_of_at_least_one_second(stance, steps):
-    cycle = ep.gait_cycle(stance)
+    cycle = gait_cycle(stance)
     assert cycle == pytest.approx(stance / 0.6)  # trot: r_swing = 0.4
-    window = ep.detrend_window_steps(cycle)
+    window = detrend_window_steps(cycle)
     assert window == steps
     cycles = window * CONTROL_DT / cycle
     assert cycles == pytest.approx(round(cycles)) and window * CONTROL_DT >= 1.0 - 1e-9
@@ -36,9 +46,9 @@ def test_detrend_window_is_whole_gait_cycles_of_at_least_one_second(stance, step
 
 @pytest.mark.parametrize("window", [7, 8, 200])
 def test_kernels(window):
-    average = ep.moving_average_kernel(window)
+    average = moving_average_kernel(window)
     assert average.sum() == pytest.approx(1.0) and np.allclose(average, average[::-1])
-    high_pass = ep.detrend_kernel(window)
+    high_pass = detrend_kernel(window)
     t = np.arange(len(high_pass), dtype=float) - len(high_pass) // 2
     for power in range(4):  # polynomials up to degree 3 are removed exactly
         assert abs(high_pass @ (t**power)) < 1e-9 * max(1.0, np.abs(t**power).max())
@@ -65,8 +75,8 @@ def _straight_walk(seconds=20.0, heading=0.5, lateral=0.004, vertical=0.002, cyc
 
 def test_com_deviation_recovers_known_sway_on_a_straight_line():
     _, com, yaw = _straight_walk()
-    window = ep.detrend_window_steps(1 / 3)
-    deviation, where = ep.com_deviation(com, yaw, window)
+    window = detrend_window_steps(1 / 3)
+    deviation, where = com_deviation(com, yaw, window)
     assert len(deviation) == len(com) - 2 * window and where.start == window
     std = deviation.std(axis=0)
     assert std[0] == pytest.approx(0.0, abs=1e-9)  # the walk (with its speed ramp) is gone
@@ -82,7 +92,7 @@ def test_com_deviation_on_a_turn_is_in_the_heading_frame():
     com = np.stack(
         (np.sin(yaw) + surge * np.cos(yaw), 1 - np.cos(yaw) + surge * np.sin(yaw), np.full_like(t, 0.24)), 1
     )
-    metrics = ep.com_metrics(com, np.stack((0 * t, 0 * t, yaw), 1), ep.detrend_window_steps(0.5))
+    metrics = com_metrics(com, np.stack((0 * t, 0 * t, yaw), 1), detrend_window_steps(0.5))
     assert metrics["com_std_x"] == pytest.approx(0.003 / math.sqrt(2), rel=0.02)
     assert metrics["com_std_y"] < 2e-4  # the turn's curvature leaves (almost) nothing
     assert metrics["com_std_z"] == pytest.approx(0.0, abs=1e-9)
@@ -92,7 +102,7 @@ def test_com_metrics_tilt_skip_and_short_runs():
     t, com, yaw = _straight_walk(seconds=10.0)
     roll = np.radians(2.0) * np.sin(2 * np.pi * t / 0.5)
     rpy = np.stack((roll, np.zeros_like(t), yaw), 1)
-    metrics = ep.com_metrics(com, rpy, 200, skip=200)
+    metrics = com_metrics(com, rpy, 200, skip=200)
     assert metrics["roll_std_deg"] == pytest.approx(2.0 / math.sqrt(2), rel=1e-2)
     assert metrics["pitch_std_deg"] == 0.0
     assert metrics["com_height_mean"] == pytest.approx(0.24, abs=1e-4)
@@ -100,22 +110,22 @@ def test_com_metrics_tilt_skip_and_short_runs():
     assert metrics["com_std"] == pytest.approx(
         math.sqrt(metrics["com_std_x"] ** 2 + metrics["com_std_y"] ** 2 + metrics["com_std_z"] ** 2)
     )
-    short = ep.com_metrics(com[:300], rpy[:300], 200)
+    short = com_metrics(com[:300], rpy[:300], 200)
     assert math.isnan(short["com_std_y"]) and short["samples"] == 0
     assert math.isfinite(short["roll_std_deg"])
     with pytest.raises(ValueError, match="com must be"):
-        ep.com_deviation(com[:, :2], yaw, 200)
+        com_deviation(com[:, :2], yaw, 200)
 
 
 def test_fit_line():
     x = np.linspace(-0.5, 0.5, 11)
-    fit = ep.fit_line(x, 0.9 * x - 0.02)
+    fit = fit_line(x, 0.9 * x - 0.02)
     assert fit["slope"] == pytest.approx(0.9) and fit["offset"] == pytest.approx(-0.02)
     assert fit["rmse"] == pytest.approx(0.0, abs=1e-12) and fit["points"] == 11
     y = 0.9 * x - 0.02
     y[3] = np.nan  # ignored
-    assert ep.fit_line(x, y)["points"] == 10
-    assert math.isnan(ep.fit_line([0.1], [0.1])["slope"])
+    assert fit_line(x, y)["points"] == 10
+    assert math.isnan(fit_line([0.1], [0.1])["slope"])
 
 
 # --- quick runs -----------------------------------------------------------------------------------------
@@ -124,7 +134,7 @@ def test_fit_line():
 @pytest.fixture(scope="module")
 def quick_all(tmp_path_factory):
     out = tmp_path_factory.mktemp("expert")
-    summary = ep.make_figures("all", out, seed=0, quick=True, workers=2, progress=False)
+    summary = make_figures("all", out, seed=0, quick=True, workers=2, progress=False)
     return out, summary
 
 
@@ -135,16 +145,16 @@ def test_quick_all_writes_every_figure(quick_all):
     from PIL import Image
 
     out, summary = quick_all
-    assert set(summary["figures"]) == set(ep.FIGURES)
+    assert set(summary["figures"]) == set(FIGURES)
     assert summary["conditions_run"] == 3 + 3 + 4 + 7  # stance 0.2 / ride 0.25 shared; one zero command
-    for name in ep.FIGURES:
+    for name in FIGURES:
         png, table, rows = out / f"{name}.png", out / f"{name}.json", out / f"{name}.csv"
         with Image.open(png) as image:
             assert image.width == 900 and image.height >= 300
             low, high = image.convert("L").getextrema()
             assert high - low > 100  # not blank
         data = json.loads(table.read_text())
-        assert data["figure"] == name and data["thesis_figure"] == ep.THESIS_FIGURE[name]
+        assert data["figure"] == name and data["thesis_figure"] == THESIS_FIGURE[name]
         with rows.open() as handle:
             assert len(list(csv.DictReader(handle))) == len(data["conditions"])
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temp files left
@@ -215,8 +225,8 @@ def test_cli_run_in_process_matches_the_pool(quick_all, tmp_path, capsys):
 def test_bad_arguments_raise_before_anything_is_written(tmp_path, kwargs, message):
     out = tmp_path / "never"
     arguments = {"which": "velocity", "out": out, "quick": True, **kwargs}
-    with pytest.raises(ep.PlotError, match=message):
-        ep.make_figures(**arguments)
+    with pytest.raises(PlotError, match=message):
+        make_figures(**arguments)
     assert not out.exists()
 
 

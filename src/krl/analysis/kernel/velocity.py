@@ -1,0 +1,202 @@
+"""``velocity`` (thesis Fig. 4.15, kernel half): realised against commanded velocity with the kernel as the
+controller, beside the expert's numbers read from ``docs/figures/expert/velocity.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from krl.analysis.common import (
+    DEFAULT_DURATION,
+    FIG_SIZE,
+    QUICK_DURATION,
+    VELOCITY_AXES,
+    fit_line,
+    hold_velocity,
+    max_cross,
+    velocity_row,
+    velocity_sweep,
+)
+from krl.analysis.kernel.context import THESIS_FIGURE, FigureError, FigureRun
+from krl.analysis.panels import VELOCITY_NAMES, draw_fit_and_axes, style
+from krl.output import FIG_DPI
+from krl.parallel import run_jobs
+from krl.runner import HOLD_RAMP, HOLD_SETTLE
+
+
+def _kernel_hold(job: tuple[str, tuple[float, float, float], float, int]) -> dict[str, Any]:
+    """One velocity-sweep point with the kernel as the controller (runs in a worker process): ``job`` is
+    (kernel file, command, duration [s], seed); the :func:`~krl.analysis.common.hold_velocity` outcome
+    with ``wall_seconds`` [s]."""
+    from krl.kernel.controller import KernelController
+    from krl.kernel.model import load_kernel
+    from krl.sim.model import build_model
+    from krl.sim.robot import A1Sim
+
+    path, command, duration, seed = job
+    start = time.perf_counter()
+    controller = KernelController(load_kernel(path))
+    outcome = hold_velocity(A1Sim(build_model("flat", None, seed)), controller, command, duration)
+    return {**outcome, "wall_seconds": time.perf_counter() - start}
+
+
+def expert_velocity_table(path: str | os.PathLike | None) -> tuple[dict | None, str | None]:
+    """The expert's velocity table and where it was read: ``path``, or by default
+    ``docs/figures/expert/velocity.json`` under the working directory, then under the repository;
+    ``(None, None)`` when the default is in neither.
+
+    Raises:
+        FigureError: an explicit ``path`` that is missing, or a table that cannot be read.
+    """
+    if path is not None:
+        path = Path(path)
+        if not path.is_file():
+            raise FigureError(f"expert velocity table not found: {path}")
+        candidates = [path]
+    else:
+        relative = Path("docs/figures/expert/velocity.json")
+        candidates = [relative, Path(__file__).resolve().parents[4] / relative]
+    for candidate in candidates:
+        if candidate.is_file():
+            try:
+                return json.loads(candidate.read_text()), str(candidate)
+            except (OSError, json.JSONDecodeError) as error:
+                raise FigureError(f"expert velocity table {candidate} is unreadable: {error}") from None
+    return None, None
+
+
+def velocity_figure(kernel_path: Path, expert_json: tuple[dict | None, str | None], run: FigureRun):
+    """Fig. 4.15's kernel half: the kernel in ``kernel_path`` holds each command of the sweep (in
+    ``run.workers`` processes), drawn beside ``expert_json`` (:func:`expert_velocity_table`).
+
+    Returns ``(table, csv columns, csv rows, matplotlib figure)``.
+    """
+    from matplotlib.figure import Figure
+
+    duration = QUICK_DURATION if run.quick else DEFAULT_DURATION
+    points = velocity_sweep(run.quick)
+    # the zero command appears in all three sweeps: run each distinct command once
+    jobs = list(dict.fromkeys((str(kernel_path), command, duration, run.seed) for _, _, command in points))
+    run.say(f"velocity: {len(jobs)} kernel holds of {duration:g} s, {run.workers} worker(s) ...")
+    outcomes = run_jobs(_kernel_hold, jobs, run.workers, progress="velocity holds" if run.progress else None)
+    by_command = {job[1]: outcome for job, outcome in zip(jobs, outcomes, strict=True)}
+    expert, expert_source = expert_json
+    expert_rows = {(r["axis"], round(r["commanded"], 6)): r for r in (expert or {}).get("conditions", [])}
+    rows = []
+    for axis, value, command in points:
+        outcome = by_command[command]
+        row = velocity_row(axis, value, outcome)
+        match = expert_rows.get((axis, round(value, 6)))
+        row["expert_mean"] = match[f"{axis}_mean"] if match else None
+        row["expert_std"] = match[f"{axis}_std"] if match else None
+        row["expert_fell"] = match["fell"] if match else None
+        rows.append(row)
+        status = " FELL" if outcome["fell"] else ""
+        run.say(
+            f"  {axis} = {value:+.2f}: realised {outcome['mean'][VELOCITY_AXES.index(axis)]:+.3f}"
+            f"{status} ({outcome['wall_seconds']:.1f} s)",
+        )
+    fits = {}
+    for axis in VELOCITY_AXES:
+        ok = [r for r in rows if r["axis"] == axis and not r["fell"]]
+        fits[axis] = fit_line([r["commanded"] for r in ok], [r[f"{axis}_mean"] for r in ok])
+        fits[axis]["falls"] = sum(1 for r in rows if r["axis"] == axis and r["fell"])
+        fits[axis]["max_abs_cross"] = max_cross(ok, axis)
+        fits[axis]["max_std"] = max((r[f"{axis}_std"] for r in ok), default=float("nan"))
+    table = {
+        "figure": "velocity",
+        "thesis_figure": THESIS_FIGURE["velocity"],
+        "seed": run.seed,
+        "quick": run.quick,
+        "controller": "KernelController(kernel-base)",
+        "kernel": str(kernel_path),
+        "duration": duration,
+        "ramp": HOLD_RAMP,
+        "measured_from": HOLD_RAMP + HOLD_SETTLE,
+        "metric": (
+            "as the expert's velocity figure (krl.analysis.expert.velocity): each command (others zero) "
+            f"held from a standing start, rising from zero over {HOLD_RAMP:g} s; "
+            "realised (vx, vy) of the trunk in its "
+            f"heading frame [m/s] and yaw rate [rad/s] at every control step from "
+            f"t = {HOLD_RAMP + HOLD_SETTLE:g} s; mean / std over time; fits: least squares realised_mean = "
+            "slope * commanded + offset over the points that did not fall; falls = points that fell; "
+            "max_std = largest std over time"
+        ),
+        "fits": fits,
+        "expert_source": expert_source,
+        "expert_fits": (expert or {}).get("fits"),
+        "expert_duration": (expert or {}).get("duration"),
+        "conditions": rows,
+    }
+    csv_columns = (
+        "axis",
+        "commanded",
+        "vx_mean",
+        "vx_std",
+        "vy_mean",
+        "vy_std",
+        "wz_mean",
+        "wz_std",
+        "fell",
+        "samples",
+        "expert_mean",
+        "expert_std",
+    )
+
+    fig = Figure(figsize=(FIG_SIZE[0], FIG_SIZE[1] * 0.75), dpi=FIG_DPI, layout="constrained")
+    axes = fig.subplots(1, 3)
+    for ax, axis in zip(axes, VELOCITY_AXES, strict=True):
+        sel = [r for r in rows if r["axis"] == axis]
+        x = np.array([r["commanded"] for r in sel])
+        lim = max(abs(x).max(), 1e-3) * 1.15
+        ax.plot([-lim, lim], [-lim, lim], "k--", lw=0.8, label="identity")
+        ex = [
+            (r["commanded"], r["expert_mean"], r["expert_std"]) for r in sel if r["expert_mean"] is not None
+        ]
+        if ex:
+            e = np.array(ex, dtype=float)
+            ax.errorbar(
+                e[:, 0] - 0.01 * lim,
+                e[:, 1],
+                yerr=e[:, 2],
+                fmt="s",
+                ms=3.5,
+                capsize=2,
+                color="C0",
+                label="MPC expert (velocity.json)",
+            )
+        ok = np.array([not r["fell"] for r in sel])
+        mean = np.array([r[f"{axis}_mean"] for r in sel], dtype=float)
+        std = np.array([r[f"{axis}_std"] for r in sel], dtype=float)
+        if ok.any():
+            ax.errorbar(
+                x[ok] + 0.01 * lim,
+                mean[ok],
+                yerr=std[ok],
+                fmt="o",
+                ms=4,
+                capsize=2,
+                color="C1",
+                label="kernel-base: mean ± std",
+            )
+        if (~ok).any():
+            y = np.where(np.isfinite(mean[~ok]), mean[~ok], 0.0)
+            ax.plot(x[~ok], y, "rx", ms=9, mew=2, label="kernel-base fell")
+        fit = fits[axis]
+        label = f"kernel fit: slope {fit['slope']:.2f}, offset {fit['offset']:+.3f}"
+        draw_fit_and_axes(ax, fit, lim, *VELOCITY_NAMES[axis], label)
+        style(ax)
+        ax.legend(fontsize=6, loc="upper left")
+    fig.suptitle(
+        f"Thesis {THESIS_FIGURE['velocity']}: realised vs commanded velocity, kernel-base controller vs MPC "
+        f"expert ({duration:g} s holds, measured from {HOLD_RAMP + HOLD_SETTLE:g} s"
+        f"{', quick' if run.quick else ''})",
+        fontsize=9,
+    )
+    return table, csv_columns, rows, fig
