@@ -19,9 +19,13 @@ FIG_DPI: int = 100
 """Resolution of the PNG figures [dots per inch]."""
 
 
-def write_atomic(path: Path, data: bytes | str) -> None:
-    """Write ``data`` (text as UTF-8) to ``path`` through a temporary file in the same folder and
-    ``os.replace``; the folder is created if missing."""
+def write_atomic(path: Path, data: bytes | str, durable: bool = False) -> None:
+    """Write ``data`` (text as UTF-8) to ``path`` through a temporary file in the same folder
+    (``.NAME.XXXXXXXX.tmp``) and ``os.replace``; the folder is created if missing.
+
+    With ``durable`` the file is fsynced before the rename and the folder after it, so the new file
+    also survives a crash of the machine, not only of the process (the datasets' parts and manifests).
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     if isinstance(data, str):
@@ -30,12 +34,22 @@ def write_atomic(path: Path, data: bytes | str) -> None:
     try:
         with os.fdopen(fd, "wb") as handle:
             handle.write(data)
+            if durable:
+                handle.flush()
+                os.fsync(handle.fileno())
         os.chmod(tmp, 0o644)
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+    if durable:
+        with contextlib.suppress(OSError):  # not every filesystem can fsync a folder
+            folder = os.open(path.parent, os.O_RDONLY)
+            try:
+                os.fsync(folder)
+            finally:
+                os.close(folder)
 
 
 def json_value(value: Any) -> Any:

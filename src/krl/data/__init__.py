@@ -1,8 +1,10 @@
 """Expert data for the kernel (thesis Section 4.2.6.2): collection and the versioned dataset schema.
 
 - :mod:`krl.data.collect`: the MPC expert walks to random targets and every 200 Hz control step becomes
-  one row; the data is written as one Parquet part file per episode plus ``manifest.json``, atomically
-  and resumably (``krl collect``).
+  one row; the data is written as one Parquet part file per episode plus ``manifest.json``, resumably
+  (``krl collect``).
+- :mod:`krl.data.storage`: the dataset directory on disk: atomic, durable part and manifest writes, the
+  writer's lock, and checking an existing dataset before a collection resumes it.
 - :mod:`krl.data.schema`: the columns (:data:`FIELDS`, schema version :data:`SCHEMA_VERSION`) and
   :func:`load_dataset`, which checks every file and gives numpy arrays by field name.
 
@@ -14,7 +16,6 @@ from krl.data.collect import (
     CollectConfig,
     CollectSummary,
     EpisodeStats,
-    SettingsMismatchError,
     collect_dataset,
     collect_episode,
 )
@@ -28,6 +29,7 @@ from krl.data.schema import (
     field_spec,
     load_dataset,
 )
+from krl.data.storage import SettingsMismatchError
 
 __all__ = [
     "FIELDS",

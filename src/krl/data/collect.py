@@ -23,15 +23,11 @@ Modes:
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import datetime
 import json
-import os
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -41,21 +37,8 @@ from krl.control.commands import CommandParams
 from krl.control.expert import RIDE_HEIGHT_RANGE, STEP_HEIGHT_RANGE, ExpertParams, MPCExpert
 from krl.control.gait import normalised_phase
 from krl.control.mpc import MPCError
-from krl.data.schema import (
-    FIELDS,
-    FORMAT_NAME,
-    MANIFEST_NAME,
-    PART_PATTERN,
-    SCHEMA_VERSION,
-    DatasetError,
-    canonical_json,
-    columns_description,
-    columns_to_table,
-    content_hash,
-    dataset_hash,
-    file_sha256,
-    read_manifest,
-)
+from krl.data.schema import FIELDS, canonical_json
+from krl.data.storage import directory_lock, open_dataset, write_manifest, write_part
 from krl.progress import progress_bar
 from krl.runner import TARGET_DISTANCE, TARGET_TIME_LIMIT, Runner, StepRecord, random_targets
 from krl.sim.robot import SimulationUnstableError
@@ -67,25 +50,6 @@ MODES: tuple[str, ...] = ("base", "ext", "dyn2")
 EXT_HEIGHTS: tuple[str, ...] = ("one", "both")
 """``ext`` mode: redraw one of the two heights per target (the thesis's "step height or ride height"),
 or both."""
-
-
-LOCK_NAME: str = ".lock"
-"""Lock file of a dataset directory while a collection writes it (holds the writer's pid)."""
-
-
-_DICTIONARY_COLUMNS: tuple[str, ...] = (
-    "step_height",
-    "ride_height",
-    "stance_duration",
-    "episode",
-    "target_index",
-    "target_xy",
-)
-"""Columns that are constant per target or episode, where Parquet's dictionary encoding pays off."""
-
-
-class SettingsMismatchError(ValueError):
-    """Resuming a dataset with settings different from those it was started with."""
 
 
 # --- configuration ---------------------------------------------------------------------------------
@@ -332,219 +296,6 @@ def collect_episode(
     return recorder.columns(), stats
 
 
-# --- files -----------------------------------------------------------------------------------------
-
-
-def _fsync_dir(directory: Path) -> None:
-    with contextlib.suppress(OSError):  # not every filesystem supports it
-        fd = os.open(directory, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-
-
-def _temp_name(path: Path) -> Path:
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
-
-
-def _atomic_write(path: Path, write: Callable[[Path], None]) -> str:
-    """Write ``path`` through a temporary file in the same directory and ``os.replace``; returns the
-    sha256 of the bytes written. An interruption leaves the old file (or none) intact."""
-    tmp = _temp_name(path)
-    try:
-        write(tmp)
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        sha = file_sha256(tmp)
-        os.replace(tmp, path)
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
-    _fsync_dir(path.parent)
-    return sha
-
-
-def _write_manifest(directory: Path, manifest: dict[str, Any]) -> None:
-    parts = sorted(manifest["parts"], key=lambda p: p["episode"])
-    manifest["parts"] = parts
-    manifest["totals"] = {
-        key: int(sum(p[key] for p in parts))
-        for key in ("rows", "targets", "targets_reached", "falls", "timeouts", "unstable")
-    }
-    manifest["totals"]["episodes"] = len(parts)
-    manifest["content_hash"] = dataset_hash(
-        manifest["metadata"]["settings"], (p["content_hash"] for p in parts)
-    )
-    manifest["updated"] = _now()
-    text = json.dumps(manifest, indent=1, sort_keys=False, allow_nan=False) + "\n"
-    _atomic_write(directory / MANIFEST_NAME, lambda tmp: tmp.write_text(text, encoding="utf-8"))
-
-
-def _write_part(
-    directory: Path, columns: Mapping[str, np.ndarray], stats: EpisodeStats, metadata: Mapping[str, Any]
-) -> dict[str, Any]:
-    """Write one episode's part file atomically; returns its manifest entry."""
-    import pyarrow.parquet as pq
-
-    from krl import __version__
-
-    name = PART_PATTERN.format(episode=stats.episode)
-    part = {
-        "file": name,
-        "episode": stats.episode,
-        "rows": stats.rows,
-        "targets": stats.targets,
-        "targets_reached": stats.targets_reached,
-        "falls": stats.falls,
-        "timeouts": stats.timeouts,
-        "unstable": stats.unstable,
-        "content_hash": content_hash(columns),
-    }
-    file_meta = {
-        "dataset": {key: value for key, value in metadata.items() if key != "columns"},
-        "part": {**part, "krl_version": __version__, "created": _now()},
-    }
-    table = columns_to_table(columns, file_meta)
-    # Dictionary encoding only where values repeat (it inflates noisy float columns by ~50 %).
-    write = partial(pq.write_table, table, compression="zstd", use_dictionary=list(_DICTIONARY_COLUMNS))
-    part["sha256"] = _atomic_write(directory / name, write)
-    return part
-
-
-def _now() -> str:
-    return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
-
-
-@contextlib.contextmanager
-def _directory_lock(directory: Path) -> Iterator[None]:
-    """Refuse a second writer on the same directory (a stale lock of a dead process is taken over)."""
-    path = directory / LOCK_NAME
-    for _ in range(2):
-        try:
-            fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
-        except FileExistsError:
-            try:
-                pid = int(path.read_text().strip() or "0")
-            except (OSError, ValueError):
-                pid = 0
-            alive = False
-            if pid > 0 and pid != os.getpid():
-                try:
-                    os.kill(pid, 0)
-                    alive = True
-                except ProcessLookupError:
-                    alive = False
-                except PermissionError:
-                    alive = True
-            if alive:
-                raise ValueError(f"{directory}: another collection (pid {pid}) is writing it") from None
-            with contextlib.suppress(FileNotFoundError):
-                path.unlink()
-            continue
-        with os.fdopen(fd, "w") as handle:
-            handle.write(f"{os.getpid()}\n")
-        break
-    else:
-        raise ValueError(f"{directory}: could not take the lock {path}")
-    try:
-        yield
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            path.unlink()
-
-
-def _flatten(value: Any, prefix: str = "") -> dict[str, Any]:
-    if isinstance(value, dict):
-        out: dict[str, Any] = {}
-        for key, item in value.items():
-            out.update(_flatten(item, f"{prefix}{key}."))
-        return out
-    return {prefix[:-1]: value}
-
-
-def _settings_difference(old: Mapping[str, Any], new: Mapping[str, Any]) -> list[str]:
-    a, b = _flatten(dict(old)), _flatten(dict(new))
-    missing = "(unset)"
-    keys = sorted(set(a) | set(b))
-    return [
-        f"{k} {a.get(k, missing)!r} != {b.get(k, missing)!r}"
-        for k in keys
-        if a.get(k, missing) != b.get(k, missing)
-    ]
-
-
-def _is_own_file(name: str) -> bool:
-    return name.endswith(".tmp") and name.startswith((".part-", f".{MANIFEST_NAME}."))
-
-
-def _open_dataset(directory: Path, config: CollectConfig, settings: dict[str, Any]) -> dict[str, Any]:
-    """Create the manifest of a new dataset, or check and repair that of an existing one."""
-    from krl import __version__
-
-    manifest_path = directory / MANIFEST_NAME
-    for entry in directory.iterdir():  # leftovers of an interrupted write
-        if _is_own_file(entry.name):
-            with contextlib.suppress(FileNotFoundError):
-                entry.unlink()
-    if not manifest_path.exists():
-        others = [e.name for e in directory.iterdir() if e.name != LOCK_NAME]
-        if others:
-            raise ValueError(
-                f"{directory} exists and is not a krl dataset (no {MANIFEST_NAME}); choose a new --out"
-            )
-        metadata = {
-            "schema_version": SCHEMA_VERSION,
-            "krl_version": __version__,
-            "created": _now(),
-            "targets_requested": int(config.targets),
-            "settings": settings,
-            "columns": columns_description(),
-        }
-        manifest = {
-            "format": FORMAT_NAME,
-            "schema_version": SCHEMA_VERSION,
-            "metadata": metadata,
-            "parts": [],
-        }
-        _write_manifest(directory, manifest)
-        return manifest
-    manifest = read_manifest(directory)
-    difference = _settings_difference(manifest["metadata"]["settings"], settings)
-    if difference:
-        raise SettingsMismatchError(
-            f"{manifest_path}: settings differ from the existing dataset ({'; '.join(difference)}); "
-            "re-run with the original options or choose a new --out"
-        )
-    kept = []
-    for part in manifest["parts"]:
-        episode, path = int(part["episode"]), directory / part["file"]
-        if episode >= config.num_episodes or part["targets"] != config.episode_targets(episode):
-            planned = config.episode_targets(episode) if episode < config.num_episodes else 0
-            raise SettingsMismatchError(
-                f"{path}: episode {episode} holds {part['targets']} targets but --targets {config.targets} "
-                f"with --targets-per-episode {config.targets_per_episode} plans {planned} for it"
-            )
-        if not path.exists():
-            continue  # lost: collect it again
-        if file_sha256(path) != part["sha256"]:
-            raise DatasetError(
-                f"{path}: sha256 mismatch (corrupt or modified); delete it to collect that episode again"
-            )
-        kept.append(part)
-    changed = len(kept) != len(manifest["parts"])
-    manifest["parts"] = kept
-    if manifest["metadata"].get("targets_requested") != config.targets:
-        manifest["metadata"]["targets_requested"] = int(config.targets)
-        changed = True
-    if changed:
-        _write_manifest(directory, manifest)
-    return manifest
-
-
 # --- the collection --------------------------------------------------------------------------------
 
 
@@ -591,9 +342,10 @@ def collect_dataset(
     """Collect (or resume collecting) an expert dataset into the directory ``out``.
 
     Finished episodes already listed in ``out/manifest.json`` are kept; the others are collected and each
-    is written atomically when it finishes. Settings that differ from the existing dataset's raise
-    :class:`SettingsMismatchError`. ``on_episode`` is called with each new part's manifest entry after
-    the manifest lists it. An interruption (Ctrl-C) loses only the episode in progress.
+    is written atomically when it finishes (:mod:`krl.data.storage`). Settings that differ from the
+    existing dataset's raise :class:`krl.data.storage.SettingsMismatchError`. ``on_episode`` is called
+    with each new part's manifest entry after the manifest lists it. An interruption (Ctrl-C) loses only
+    the episode in progress.
     """
     from krl.sim.model import build_model
 
@@ -606,8 +358,8 @@ def collect_dataset(
     directory.mkdir(parents=True, exist_ok=True)
     rows_collected = 0
     collected = 0
-    with _directory_lock(directory):
-        manifest = _open_dataset(directory, config, settings)
+    with directory_lock(directory):
+        manifest = open_dataset(directory, config, settings)
         done = {int(p["episode"]) for p in manifest["parts"]}
         todo = [e for e in range(config.num_episodes) if e not in done]
         total = sum(config.episode_targets(e) for e in todo)
@@ -623,9 +375,9 @@ def collect_dataset(
                     bar.update(task, advance=1, status=f"falls {falls} timeouts {timeouts}")
 
                 columns, stats = collect_episode(built, config, episode, on_target)
-                part = _write_part(directory, columns, stats, manifest["metadata"])
+                part = write_part(directory, columns, dataclasses.asdict(stats), manifest["metadata"])
                 manifest["parts"].append(part)
-                _write_manifest(directory, manifest)
+                write_manifest(directory, manifest)
                 counts["falls"] += stats.falls + stats.unstable
                 counts["timeouts"] += stats.timeouts
                 rows_collected += stats.rows
@@ -656,7 +408,6 @@ __all__ = [
     "CollectConfig",
     "CollectSummary",
     "EpisodeStats",
-    "SettingsMismatchError",
     "collect_dataset",
     "collect_episode",
 ]
