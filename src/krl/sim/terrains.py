@@ -13,6 +13,11 @@ else), ``condim=3`` and sliding friction :data:`krl.robots.a1.constants.FOOT_FRI
 Height fields follow MuJoCo's convention: ``data[r, c]`` is the vertex at ``x = x0 + c * dx``,
 ``y = y0 + r * dy`` (rows along y) and each grid cell is split into the two triangles on either side of its
 ``(r, c) - (r + 1, c + 1)`` diagonal; :meth:`Terrain.height` interpolates exactly the same triangles.
+
+One module on purpose (over 600 lines): every terrain is a parameter dataclass plus a builder, and the
+builders share one registry (parameter resolution and checks), one scene (textures, materials, lights)
+and private geometry helpers (floors, height-field grids); split per terrain, those helpers would become
+an API that nothing outside the terrains uses.
 """
 
 from __future__ import annotations
