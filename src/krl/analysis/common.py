@@ -112,6 +112,21 @@ def hold_velocity(sim, controller, command: Sequence[float], duration: float) ->
     }
 
 
+VELOCITY_COLUMNS: tuple[str, ...] = (
+    "axis",
+    "commanded",
+    "vx_mean",
+    "vx_std",
+    "vy_mean",
+    "vy_std",
+    "wz_mean",
+    "wz_std",
+    "fell",
+    "samples",
+)
+"""The CSV columns of a velocity table (:func:`velocity_row`'s keys but ``error``)."""
+
+
 def velocity_row(axis: str, value: float, outcome: dict[str, Any]) -> dict[str, Any]:
     """One velocity-table row from a :func:`hold_velocity` outcome: ``axis``, ``commanded``,
     ``{vx,vy,wz}_{mean,std}``, ``fell``, ``samples``, ``error``."""

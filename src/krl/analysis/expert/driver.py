@@ -29,11 +29,17 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from krl.analysis.common import DEFAULT_DURATION, QUICK_DURATION, check_run_options, write_figure
+from krl.analysis.common import (
+    DEFAULT_DURATION,
+    QUICK_DURATION,
+    VELOCITY_COLUMNS,
+    check_run_options,
+    write_figure,
+)
 from krl.analysis.expert.com import COM_COLUMNS, com_table, plot_com
 from krl.analysis.expert.plan import CHOICES, DEFAULT_TARGETS, FIGURES, QUICK_TARGETS, Settings, plan
 from krl.analysis.expert.runs import HoldJob, Job, WalkJob, run_job
-from krl.analysis.expert.velocity import VELOCITY_COLUMNS, plot_velocity, velocity_table
+from krl.analysis.expert.velocity import plot_velocity, velocity_table
 from krl.parallel import run_jobs
 from krl.runner import HOLD_RAMP, HOLD_SETTLE
 

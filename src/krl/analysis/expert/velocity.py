@@ -13,19 +13,6 @@ from krl.analysis.panels import VELOCITY_NAMES, draw_fit_and_axes, style
 from krl.output import FIG_DPI
 from krl.runner import HOLD_RAMP, HOLD_SETTLE
 
-VELOCITY_COLUMNS = (
-    "axis",
-    "commanded",
-    "vx_mean",
-    "vx_std",
-    "vy_mean",
-    "vy_std",
-    "wz_mean",
-    "wz_std",
-    "fell",
-    "samples",
-)
-
 
 def velocity_table(conditions: list, results: dict, settings: Settings) -> tuple[dict, list]:
     """The JSON table (with a line fit per component) and the CSV rows, one per commanded point."""

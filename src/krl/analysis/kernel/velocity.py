@@ -17,6 +17,7 @@ from krl.analysis.common import (
     FIG_SIZE,
     QUICK_DURATION,
     VELOCITY_AXES,
+    VELOCITY_COLUMNS,
     fit_line,
     hold_velocity,
     max_cross,
@@ -134,20 +135,7 @@ def velocity_figure(kernel_path: Path, expert_json: tuple[dict | None, str | Non
         "expert_duration": (expert or {}).get("duration"),
         "conditions": rows,
     }
-    csv_columns = (
-        "axis",
-        "commanded",
-        "vx_mean",
-        "vx_std",
-        "vy_mean",
-        "vy_std",
-        "wz_mean",
-        "wz_std",
-        "fell",
-        "samples",
-        "expert_mean",
-        "expert_std",
-    )
+    csv_columns = (*VELOCITY_COLUMNS, "expert_mean", "expert_std")
 
     fig = Figure(figsize=(FIG_SIZE[0], FIG_SIZE[1] * 0.75), dpi=FIG_DPI, layout="constrained")
     axes = fig.subplots(1, 3)
