@@ -65,6 +65,7 @@ Job = WalkJob | HoldJob
 
 
 def _expert_and_sim(stance: float, ride: float, step: float, seed: int):
+    """A fresh expert with these stance duration [s], ride and step heights [m], on flat ground."""
     from krl.control.expert import ExpertParams, MPCExpert
     from krl.sim.model import build_model
     from krl.sim.robot import A1Sim
@@ -74,6 +75,8 @@ def _expert_and_sim(stance: float, ride: float, step: float, seed: int):
 
 
 def _run_walk(job: WalkJob) -> dict[str, Any]:
+    """The walk's outcome and CoM metrics (:func:`com_metrics`), its CoM path every
+    :data:`PATH_DECIMATION` steps ((M, 2) [m]) and an excerpt of the deviation and height to draw."""
     from krl.runner import Runner
 
     expert, sim = _expert_and_sim(job.stance_duration, job.ride_height, job.step_height, job.seed)
@@ -127,6 +130,7 @@ def _run_walk(job: WalkJob) -> dict[str, Any]:
 
 
 def _run_hold(job: HoldJob) -> dict[str, Any]:
+    """The realised velocity while holding the job's command (:func:`krl.analysis.common.hold_velocity`)."""
     expert, sim = _expert_and_sim(SWEEP_STANCE, NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT, job.seed)
     return hold_velocity(sim, expert, job.command, job.duration)
 
