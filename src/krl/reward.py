@@ -28,7 +28,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from krl.control.frames import realised_velocity
-from krl.sim.robot import RobotState
 
 TERM_NAMES: tuple[str, ...] = (
     "linear_velocity",
@@ -57,7 +56,10 @@ class RBFTerm:
         if not math.isfinite(self.weight):
             raise ValueError(f"RBF weight must be finite, got {self.weight}")
 
-    def __call__(self, squared_error: float) -> float:
+    def __call__(self, squared_error: float | np.ndarray) -> float | np.ndarray:
+        """The term for one squared error (a float), or for an array of them (a batch of robots)."""
+        if isinstance(squared_error, np.ndarray):
+            return self.weight * np.exp(-self.steepness * squared_error)
         return self.weight * math.exp(-self.steepness * squared_error)
 
 
@@ -90,35 +92,49 @@ _DOWN = np.array([0.0, 0.0, -1.0])
 def reward_terms(
     params: RewardParams,
     command: np.ndarray,
-    state: RobotState,
-    target_distance: float,
-    reached: bool,
-    fell: bool,
-) -> dict[str, float]:
-    """The named reward terms of one control step.
+    state,
+    target_distance: float | np.ndarray,
+    reached: bool | np.ndarray,
+    fell: bool | np.ndarray,
+) -> dict[str, float] | dict[str, np.ndarray]:
+    """The named reward terms of one control step, for one robot or a batch of N.
 
     Args:
         params: the reward function.
-        command: the velocity command of the step (v_x, v_y, ω_z) [m/s, m/s, rad/s]. Shape: (3,).
-        state: the robot's state after the step.
+        command: the velocity command of the step (v_x, v_y, ω_z) [m/s, m/s, rad/s]. Shape: (3,) or (N, 3).
+        state: the robot's state after the step: a :class:`krl.sim.robot.RobotState`, or a
+            :class:`krl.sim.batch.StateBatch` of N robots.
         target_distance: planar distance from the base to the current waypoint after the step [m].
-        reached: the step brought the robot within D_min of its waypoint.
-        fell: the robot fell during the step.
+            A float, or shape (N,).
+        reached: the step brought the robot within D_min of its waypoint. A bool, or shape (N,).
+        fell: the robot fell during the step. A bool, or shape (N,).
 
     Returns:
         ``{term: value}`` for :data:`TERM_NAMES` (``roll_pitch`` only when ``params.roll_pitch`` is set);
-        the step's reward is the sum of the values.
+        the step's reward is the sum of the values. Floats for one robot, arrays of shape (N,) for a batch.
     """
     realised = realised_velocity(state)
-    linear_error = float((command[0] - realised[0]) ** 2 + (command[1] - realised[1]) ** 2)
+    command = np.asarray(command, dtype=float)
+    linear_error = (command[..., 0] - realised[..., 0]) ** 2 + (command[..., 1] - realised[..., 1]) ** 2
+    yaw_error = (command[..., 2] - realised[..., 2]) ** 2
+    gravity_error = np.sum((state.projected_gravity - _DOWN) ** 2, axis=-1)
+    distance = np.asarray(target_distance, dtype=float)
+    tilt = state.rpy[..., 0] ** 2 + state.rpy[..., 1] ** 2
+    if linear_error.ndim == 0:
+        linear_error, yaw_error, gravity_error = float(linear_error), float(yaw_error), float(gravity_error)
+        distance, tilt = float(distance), float(tilt)
     terms = {
         "linear_velocity": params.linear_velocity(linear_error),
-        "angular_velocity": params.angular_velocity(float((command[2] - realised[2]) ** 2)),
-        "gravity": params.gravity(float(np.sum((state.projected_gravity - _DOWN) ** 2))),
-        "target_distance": params.target_distance(float(target_distance) ** 2),
+        "angular_velocity": params.angular_velocity(yaw_error),
+        "gravity": params.gravity(gravity_error),
+        "target_distance": params.target_distance(distance**2),
     }
     if params.roll_pitch is not None:
-        terms["roll_pitch"] = params.roll_pitch(float(state.rpy[0] ** 2 + state.rpy[1] ** 2))
-    terms["fall"] = params.fall_penalty if fell else 0.0
-    terms["target_reached"] = params.target_bonus if reached else 0.0
+        terms["roll_pitch"] = params.roll_pitch(tilt)
+    if np.ndim(fell) == 0:
+        terms["fall"] = params.fall_penalty if fell else 0.0
+        terms["target_reached"] = params.target_bonus if reached else 0.0
+    else:
+        terms["fall"] = np.where(fell, params.fall_penalty, 0.0)
+        terms["target_reached"] = np.where(reached, params.target_bonus, 0.0)
     return terms

@@ -13,7 +13,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from krl.cli import data, expert, kernel, sim
+from krl.cli import agent, data, expert, kernel, sim
 from krl.cli import eval as evaluation
 from krl.cli.common import CliError
 
@@ -34,6 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
     kernel.register(subparsers)
     data.register(subparsers)
     evaluation.register(subparsers)
+    agent.register(subparsers)
     return parser
 
 

@@ -78,6 +78,10 @@ class LowPassFilter:
         self._state = self._alpha * arr + (1.0 - self._alpha) * self._state
         return self._state.copy()
 
+    def reset_rows(self, rows: Any) -> None:
+        """Zero the state of some rows of a batched filter (``rows`` indexes the first axis)."""
+        self._state[rows] = 0.0
+
     def reset(self, value: Any = 0.0) -> None:
         """Set the state ``y_{t-1}`` to ``value`` (a scalar or an array broadcastable to ``shape``)."""
         arr = np.asarray(value, dtype=float)

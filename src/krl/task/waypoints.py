@@ -38,11 +38,13 @@ def random_targets(
     count: int,
     start_xy: tuple[float, float] = (0.0, 0.0),
     distance: tuple[float, float] = TARGET_DISTANCE,
+    bounds: tuple[float, float, float, float] | None = None,
 ) -> np.ndarray:
     """Consecutive waypoints, each at a distance ~ U(distance) [m] in a direction ~ U(-π, π) from the last.
 
     The thesis's data collection walks to targets "at a minimum distance of 2.5 m in a random direction".
-    Shape: (count, 2).
+    ``bounds`` (x_min, y_min, x_max, y_max) [m]: a waypoint outside them is drawn again (up to 100 times,
+    then clipped into them), so a long walk stays on a terrain of finite size. Shape: (count, 2).
     """
     if count < 0:
         raise ValueError(f"target count must be >= 0, got {count}")
@@ -51,11 +53,22 @@ def random_targets(
         raise ValueError(f"target distance range must satisfy 0 < low <= high, got {distance}")
     # one (distance, direction) pair per target, in order, so a longer list extends a shorter one
     offsets = np.zeros((count, 2))
+    point = np.asarray(start_xy, dtype=float)
     for index in range(count):
-        step = rng.uniform(low, high)
-        angle = rng.uniform(-np.pi, np.pi)
-        offsets[index] = step * np.cos(angle), step * np.sin(angle)
+        for _ in range(100):
+            step = rng.uniform(low, high)
+            angle = rng.uniform(-np.pi, np.pi)
+            offsets[index] = step * np.cos(angle), step * np.sin(angle)
+            if bounds is None or _inside(point + offsets[index], bounds):
+                break
+        else:
+            offsets[index] = np.clip(point + offsets[index], bounds[:2], bounds[2:]) - point
+        point = point + offsets[index]
     return np.asarray(start_xy, dtype=float) + np.cumsum(offsets, axis=0)
+
+
+def _inside(point: np.ndarray, bounds: tuple[float, float, float, float]) -> bool:
+    return bounds[0] <= point[0] <= bounds[2] and bounds[1] <= point[1] <= bounds[3]
 
 
 class TaskStatus(enum.Enum):

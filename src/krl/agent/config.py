@@ -1,0 +1,295 @@
+"""Configuration of the residual agent: the action path, the environment, the observation and PPO.
+
+One frozen dataclass per component, composed into :class:`AgentConfig`, which is saved as
+``config.json`` beside every training run and inside every policy file. Defaults are the thesis's final
+agent (agent-rp, Sections 4.2.8-4.2.9, Fig. 4.17 trial 3) unless a field's docstring says they are ours;
+``docs/agent.md`` gives the reasoning for each of ours.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from krl.control.filters import DEFAULT_ALPHA
+from krl.task.waypoints import TARGET_DISTANCE
+
+
+class AgentConfigError(ValueError):
+    """A malformed agent configuration (unknown key, wrong type, value out of range); one line."""
+
+
+def _positive(name: str, value: float) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise AgentConfigError(f"{name} must be a positive number, got {value!r}")
+
+
+def _range(name: str, value: tuple[float, float], low: float = 0.0) -> None:
+    if len(value) != 2 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in value):
+        raise AgentConfigError(f"{name} must be a (low, high) pair of numbers, got {value!r}")
+    if not low <= value[0] <= value[1]:
+        raise AgentConfigError(f"{name} must satisfy {low} <= low <= high, got {value!r}")
+
+
+@dataclass(frozen=True)
+class ResidualConfig:
+    """The action path: kernel + low-pass-filtered residual -> IK -> PD."""
+
+    kernel: str = "base"
+    """The kernel giving the reference foot targets: a shipped kernel's name or a kernel file."""
+    residual_bound: tuple[float, float, float] = (0.08, 0.08, 0.08)
+    """Largest residual per axis (x, y, z) of each foot, base frame [m]: an action of ±1 maps to it.
+    Not in the thesis; chosen by measurement (docs/agent.md)."""
+    alpha: float = DEFAULT_ALPHA
+    """Smoothing factor α of the residuals' low-pass filter (Eq. 4.4)."""
+
+    def __post_init__(self) -> None:
+        if len(self.residual_bound) != 3:
+            raise AgentConfigError(
+                f"residual_bound must have 3 values (x, y, z) [m], got {self.residual_bound!r}"
+            )
+        for axis, bound in zip("xyz", self.residual_bound, strict=True):
+            _positive(f"residual_bound {axis}", bound)
+        if not (isinstance(self.alpha, (int, float)) and 0 < self.alpha <= 1):
+            raise AgentConfigError(f"alpha must be in (0, 1], got {self.alpha!r}")
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """The training environment (Section 4.2.9)."""
+
+    heightfield_probability: float = 0.75
+    """Probability that a new terrain is a random height field (else Perlin hills)."""
+    heightfield_max_height: tuple[float, float] = (0.03, 0.045)
+    """Height-field perturbation h ~ U(low, high) [m] (blocks of height U(0, h))."""
+    episodes_per_terrain: int = 5
+    """Consecutive episodes on one terrain before a new one is drawn."""
+    episode_time: float = 60.0
+    """Episode length [s]: the thesis counts the targets reached in 60 s; the limit truncates."""
+    d_min: float = 0.5
+    """Waypoint threshold D_min [m]."""
+    target_distance: tuple[float, float] = TARGET_DISTANCE
+    """Distance of each random waypoint from the previous one ~ U(low, high) [m] (as in the collection)."""
+    field_margin: float = 2.0
+    """Waypoints stay this far inside the terrain's edge [m] (ours: the 24 m fields end)."""
+    pushes: bool = True
+    """Random pushes on the trunk (Section 4.2.9)."""
+    push_interval: tuple[float, float] = (5.0, 8.0)
+    """Time between pushes ~ U(low, high) [s]."""
+    push_magnitude: tuple[float, float] = (100.0, 350.0)
+    """Push force ~ U(low, high) [N], for 0.3 s, at a random trunk point, directed slightly upwards."""
+    reward: str = "rp"
+    """``rp`` (Table 4.8 + roll/pitch term: agent-rp) or ``base`` (Table 4.8: agent-base)."""
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.heightfield_probability <= 1:
+            raise AgentConfigError(
+                f"heightfield_probability must be in [0, 1], got {self.heightfield_probability!r}"
+            )
+        _range("heightfield_max_height", self.heightfield_max_height)
+        if self.heightfield_max_height[0] <= 0:
+            raise AgentConfigError("heightfield_max_height must be > 0 m")
+        if not (isinstance(self.episodes_per_terrain, int) and self.episodes_per_terrain >= 1):
+            raise AgentConfigError(
+                f"episodes_per_terrain must be an integer >= 1, got {self.episodes_per_terrain!r}"
+            )
+        _positive("episode_time", self.episode_time)
+        _positive("d_min", self.d_min)
+        _range("target_distance", self.target_distance)
+        if self.target_distance[0] <= 0:
+            raise AgentConfigError("target_distance must be > 0 m")
+        if not (isinstance(self.field_margin, (int, float)) and 0 <= self.field_margin < 10):
+            raise AgentConfigError(f"field_margin must be in [0, 10) m, got {self.field_margin!r}")
+        _range("push_interval", self.push_interval)
+        if self.push_interval[0] <= 0:
+            raise AgentConfigError("push_interval must be > 0 s")
+        _range("push_magnitude", self.push_magnitude)
+        if self.reward not in REWARDS:
+            raise AgentConfigError(f"unknown reward {self.reward!r}; known: {', '.join(REWARDS)}")
+
+
+REWARDS: tuple[str, ...] = ("rp", "base")
+"""Reward functions an agent can train on (:mod:`krl.reward`)."""
+
+
+@dataclass(frozen=True)
+class ObservationConfig:
+    """Which features the policy observes (:mod:`krl.agent.observation` documents each)."""
+
+    features: tuple[str, ...] = (
+        "base_lin_vel",
+        "base_ang_vel",
+        "command",
+        "joint_pos",
+        "joint_vel",
+        "gravity",
+        "roll_pitch",
+        "residual",
+        "foot_contact",
+    )
+    """Feature names in order: the thesis's final set (4.2.8.3): the core attributes, the previous
+    filtered residual and the foot contacts. Optional: ``phase``, ``kernel_targets``, ``contact_force``."""
+
+    def __post_init__(self) -> None:
+        from krl.agent.observation import FEATURES
+
+        unknown = [name for name in self.features if name not in FEATURES]
+        if unknown:
+            raise AgentConfigError(
+                f"unknown observation feature {unknown[0]!r}; known: {', '.join(FEATURES)}"
+            )
+        if len(set(self.features)) != len(self.features) or not self.features:
+            raise AgentConfigError(
+                f"observation features must be distinct and not empty, got {self.features!r}"
+            )
+
+
+@dataclass(frozen=True)
+class PPOConfig:
+    """PPO (Stable-Baselines3) settings: Fig. 4.17's trial 3 unless marked ours."""
+
+    learning_rate: float = 1e-3
+    """Initial learning rate."""
+    lr_decay_horizon: float = 2e7
+    """The learning rate falls linearly from ``learning_rate`` towards 0 at this many env steps ..."""
+    lr_decay_stop: float = 3e6
+    """... but stops falling after this many env steps (4.2.9: "we stop decaying the learning rate after
+    3e6 timesteps"), staying at ``learning_rate * (1 - lr_decay_stop / lr_decay_horizon)``."""
+    batch_size: int = 4000
+    """Minibatch size [samples]."""
+    n_epochs: int = 10
+    """Passes over each rollout."""
+    rollout_steps: int = 200_000
+    """Env steps per rollout, summed over all environments (2e5)."""
+    ent_coef: float = 5e-6
+    """Entropy coefficient."""
+    shared: tuple[int, ...] = (128, 128)
+    """Hidden layers shared by actor and critic ("feature extractor 128x2")."""
+    actor: tuple[int, ...] = (128,)
+    """Actor hidden layers after the shared ones."""
+    critic: tuple[int, ...] = (64,)
+    """Critic hidden layers after the shared ones."""
+    gamma: float = 0.99
+    """Discount factor (SB3's default; the thesis does not give it)."""
+    gae_lambda: float = 0.95
+    """GAE λ (SB3's default)."""
+    clip_range: float = 0.2
+    """PPO clip range (SB3's default)."""
+    log_std_init: float = -1.0
+    """Initial log standard deviation of the Gaussian actions (ours: σ ≈ 0.37 of the residual bound)."""
+    normalize_observations: bool = True
+    """Running mean/std normalisation of observations (ours; exported with the policy)."""
+    normalize_rewards: bool = True
+    """Scale rewards by a running estimate of the return's std (ours; training only)."""
+
+    def __post_init__(self) -> None:
+        for name in ("learning_rate", "lr_decay_horizon", "ent_coef", "gamma", "gae_lambda", "clip_range"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise AgentConfigError(f"{name} must be a finite number >= 0, got {value!r}")
+        if not 0 <= self.lr_decay_stop <= self.lr_decay_horizon:
+            raise AgentConfigError("lr_decay_stop must be in [0, lr_decay_horizon]")
+        for name in ("batch_size", "n_epochs", "rollout_steps"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and value >= 1):
+                raise AgentConfigError(f"{name} must be an integer >= 1, got {value!r}")
+        for name in ("shared", "actor", "critic"):
+            value = getattr(self, name)
+            if not all(isinstance(width, int) and width >= 1 for width in value):
+                raise AgentConfigError(f"{name} must be a list of positive layer widths, got {value!r}")
+
+    def learning_rate_at(self, steps: float) -> float:
+        """The learning rate after ``steps`` env steps."""
+        return self.learning_rate * (1.0 - min(steps, self.lr_decay_stop) / self.lr_decay_horizon)
+
+
+@dataclass(frozen=True)
+class AgentConfig:
+    """Everything that defines a residual agent and its training."""
+
+    residual: ResidualConfig = field(default_factory=ResidualConfig)
+    env: EnvConfig = field(default_factory=EnvConfig)
+    observation: ObservationConfig = field(default_factory=ObservationConfig)
+    ppo: PPOConfig = field(default_factory=PPOConfig)
+    num_envs: int = 16
+    """Environments per worker process (ours)."""
+    workers: int = 2
+    """Worker processes stepping environments (one per core)."""
+    total_steps: int = 20_000_000
+    """Env steps to train for (thesis: 2e7)."""
+    checkpoint_every: int = 1_000_000
+    """Env steps between checkpoints (an interruption loses at most this much)."""
+
+    def __post_init__(self) -> None:
+        for name in ("num_envs", "workers", "total_steps", "checkpoint_every"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and value >= 1):
+                raise AgentConfigError(f"{name} must be an integer >= 1, got {value!r}")
+
+    def to_json(self) -> dict[str, Any]:
+        return json.loads(json.dumps(dataclasses.asdict(self)))
+
+    @classmethod
+    def from_json(cls, data: Any, source: str = "config") -> AgentConfig:
+        """Build from a JSON-like mapping (missing keys: defaults); one-line errors name the bad key."""
+        return _from_mapping(cls, data, source)
+
+    @classmethod
+    def load(cls, path: str | Path) -> AgentConfig:
+        """Read a JSON (``.json``) or TOML (``.toml``) config file."""
+        path = Path(path)
+        try:
+            text = path.read_text()
+        except OSError as error:
+            raise AgentConfigError(f"cannot read agent config {path}: {error.strerror}") from None
+        try:
+            if path.suffix == ".toml":
+                import tomllib
+
+                data = tomllib.loads(text)
+            else:
+                data = json.loads(text)
+        except ValueError as error:
+            raise AgentConfigError(
+                f"agent config {path} is not valid {path.suffix[1:] or 'JSON'}: {error}"
+            ) from None
+        return cls.from_json(data, str(path))
+
+
+def _from_mapping(cls: type, data: Any, where: str):
+    if not isinstance(data, dict):
+        raise AgentConfigError(f"{where}: expected a table of settings, got {type(data).__name__}")
+    known = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - set(known))
+    if unknown:
+        raise AgentConfigError(f"{where}: unknown setting {unknown[0]!r}; known: {', '.join(known)}")
+    values: dict[str, Any] = {}
+    for name, value in data.items():
+        kind = known[name].type
+        sub = _SECTIONS.get(name) if cls is AgentConfig else None
+        if sub is not None:
+            values[name] = _from_mapping(sub, value, f"{where}.{name}")
+        elif isinstance(value, list):
+            values[name] = tuple(value)
+        elif "float" in str(kind) and isinstance(value, int) and not isinstance(value, bool):
+            values[name] = float(value)
+        else:
+            values[name] = value
+    try:
+        return cls(**values)
+    except AgentConfigError as error:
+        raise AgentConfigError(f"{where}: {error}") from None
+    except (TypeError, ValueError) as error:
+        raise AgentConfigError(f"{where}: {error}") from None
+
+
+_SECTIONS: dict[str, type] = {
+    "residual": ResidualConfig,
+    "env": EnvConfig,
+    "observation": ObservationConfig,
+    "ppo": PPOConfig,
+}

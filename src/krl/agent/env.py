@@ -1,0 +1,350 @@
+"""The residual agent's environments: N robots walking to random waypoints on rough terrain, with pushes.
+
+:class:`ResidualEnvBatch` is the core: N environments stepped together in one process, the physics one
+robot after the other (:class:`krl.sim.batch.SimBatch`), everything else (kernel, filter, IK, observation,
+reward) batched over N. Two faces use it:
+
+* :class:`A1ResidualEnv`, the Gymnasium environment ``krl/A1Residual-v0`` (one robot);
+* :class:`ResidualVecEnv`, a Stable-Baselines3 ``VecEnv`` of N robots with automatic resets.
+
+An episode (Section 4.2.9): the robot starts at the terrain's spawn point facing a random direction and
+walks to consecutive random waypoints (2.5-3.5 m apart, inside the field) through the command generator
+of Algorithm 2, D_min 0.5 m; a fall terminates it, the 60 s limit truncates it. Terrains: a random height
+field (perturbation ~ U(3, 4.5) cm) with probability 0.75, else Perlin hills, kept for 5 consecutive
+episodes of that environment. Pushes of U(100, 350) N for 0.3 s every U(5, 8) s at a random trunk point,
+slightly upwards (:mod:`krl.sim.pushes`). The reward is :func:`krl.reward.reward_terms` (agent-rp by
+default), the one the evaluation tables use; every term is summed per episode and reported in the info
+of the episode's last step. The evaluation courses are never used here: they are unseen terrain.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnv
+
+from krl.agent.config import AgentConfig
+from krl.agent.observation import observation_size, observe
+from krl.agent.residual import ResidualController
+from krl.control.commands import CommandParams
+from krl.kernel.model import load_kernel
+from krl.kernel.registry import resolve_model
+from krl.reward import AGENT_BASE_REWARD, EVALUATION_REWARD, reward_terms
+from krl.sim.batch import SimBatch, StateBatch
+from krl.sim.model import build_model
+from krl.sim.pushes import PushDistribution, PushSchedule
+from krl.task.waypoints import TaskStatus, WaypointTask, random_targets
+from krl.timing import CONTROL_DT
+
+EPISODE_INFO_KEYS: tuple[str, ...] = ("r", "l", "t", "targets_reached", "fell", "terrain", "terms")
+"""Keys of ``info["episode"]`` on an episode's last step (``r``, ``l``, ``t`` as SB3's Monitor)."""
+
+
+def reward_params(name: str):
+    """The reward function of an agent config's ``env.reward`` name."""
+    return EVALUATION_REWARD if name == "rp" else AGENT_BASE_REWARD
+
+
+class ResidualEnvBatch:
+    """N residual environments without automatic resets.
+
+    Args:
+        config: the agent's configuration.
+        num_envs: N.
+        kernel_path: the kernel file (default: the one ``config.residual.kernel`` names).
+    """
+
+    def __init__(self, config: AgentConfig, num_envs: int, kernel_path: str | None = None) -> None:
+        self.config = config
+        self.num_envs = num_envs
+        self.kernel_path = str(resolve_model(config.residual.kernel) if kernel_path is None else kernel_path)
+        self.controller = ResidualController(load_kernel(self.kernel_path), config.residual, num_envs)
+        self.features = config.observation.features
+        self.observation_size = observation_size(self.features)
+        self.reward = reward_params(config.env.reward)
+        self.command_params = replace(CommandParams(), d_min=config.env.d_min)
+        env = config.env
+        self.pushes = PushDistribution(interval=env.push_interval, magnitude=env.push_magnitude)
+        self.rngs: list[np.random.Generator] = [np.random.default_rng(index) for index in range(num_envs)]
+        self.sims: SimBatch | None = None
+        self.tasks: list[WaypointTask | None] = [None] * num_envs
+        self.push_schedules: list[PushSchedule | None] = [None] * num_envs
+        self.episodes_on_terrain = np.zeros(num_envs, dtype=np.int64)
+        self.episode_reward = np.zeros(num_envs)
+        self.episode_steps = np.zeros(num_envs, dtype=np.int64)
+        self.episode_terms: list[dict[str, float]] = [{} for _ in range(num_envs)]
+        self.episode_start = [time.perf_counter()] * num_envs
+        self.terrain_names = [""] * num_envs
+        self.needs_terrain = np.ones(num_envs, dtype=bool)
+        self.states: StateBatch | None = None
+        self.last_terms: dict[str, np.ndarray] = {}
+        """The reward terms of the last step, one array of shape (N,) per term."""
+
+    # --- resets ------------------------------------------------------------------------------------
+
+    def seed(self, index: int, seed: int | None) -> None:
+        """Reseed environment ``index``; its next reset draws a new terrain."""
+        self.rngs[index] = np.random.default_rng(seed)
+        self.needs_terrain[index] = True
+
+    def _terrain(self, index: int):
+        rng = self.rngs[index]
+        env = self.config.env
+        seed = int(rng.integers(2**31))
+        if rng.random() < env.heightfield_probability:
+            low, high = env.heightfield_max_height
+            built = build_model("heightfield", {"max_height_low": low, "max_height_high": high}, seed)
+        else:
+            built = build_model("perlin", None, seed)
+        self.terrain_names[index] = f"{built.terrain.name}-{seed}"
+        return built
+
+    def reset(self, rows) -> np.ndarray:
+        """Start a new episode in each environment of ``rows``; returns their observations, (n, D)."""
+        rows = np.atleast_1d(np.asarray(rows, dtype=np.int64))
+        env = self.config.env
+        for index in rows:
+            new_terrain = (
+                self.needs_terrain[index] or self.episodes_on_terrain[index] >= env.episodes_per_terrain
+            )
+            if new_terrain:
+                built = self._terrain(index)
+                if self.sims is None:
+                    self.sims = SimBatch([built] * self.num_envs)
+                self.sims.replace(index, built)
+                self.needs_terrain[index] = False
+                self.episodes_on_terrain[index] = 0
+            self.episodes_on_terrain[index] += 1
+            rng = self.rngs[index]
+            sim = self.sims.sims[index]
+            state = sim.reset(yaw=float(rng.uniform(-np.pi, np.pi)))
+            low, high = sim.terrain.landmarks["field_min"], sim.terrain.landmarks["field_max"]
+            margin = env.field_margin
+            bounds = (low[0] + margin, low[1] + margin, high[0] - margin, high[1] - margin)
+            count = math.ceil(env.episode_time * self.command_params.max_speed / env.target_distance[0]) + 2
+            targets = random_targets(rng, count, tuple(state.base_pos[:2]), env.target_distance, bounds)
+            task = WaypointTask(
+                targets, self.command_params, target_time_limit=None, time_limit=env.episode_time
+            )
+            task.reset(state.base_pos[:2])
+            self.tasks[index] = task
+            self.push_schedules[index] = PushSchedule(self.pushes, rng) if env.pushes else None
+            self.episode_reward[index] = 0.0
+            self.episode_steps[index] = 0
+            self.episode_terms[index] = {}
+            self.episode_start[index] = time.perf_counter()
+        self.controller.reset(rows)
+        self.states = self.sims.states
+        states = StateBatch.from_states([self.sims.sims[i].state for i in rows])
+        self._prepare(states, rows)
+        return self._observe(rows)
+
+    # --- stepping ----------------------------------------------------------------------------------
+
+    def _prepare(self, states: StateBatch, rows: np.ndarray) -> None:
+        """The coming step's commands from the tasks (zero where a task is over) and the kernel's targets."""
+        commands = np.zeros((len(rows), 3))
+        for k, index in enumerate(rows):
+            command = self.tasks[index].command(states.base_pos[k, :2], float(states.rpy[k, 2]))
+            if command is not None:
+                commands[k] = command
+        self.controller.prepare(states, commands, rows)
+
+    def _observe(self, rows: np.ndarray) -> np.ndarray:
+        inputs = self.controller.observation_inputs(self.states)
+        return observe(self.features, inputs)[rows]
+
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[dict]]:
+        """One control step of every environment.
+
+        Returns ``(observations (N, D), rewards (N,), terminated (N,), truncated (N,), infos)``; an ended
+        episode's info holds ``info["episode"]`` (:data:`EPISODE_INFO_KEYS`). Ended environments must be
+        reset before the next step.
+        """
+        q_target = self.controller.joint_targets(actions)
+        commands = self.controller.command.copy()
+        sims = self.sims
+        for index, schedule in enumerate(self.push_schedules):
+            if schedule is not None:
+                push = schedule.due(sims.sims[index].time)
+                if push is not None:
+                    sims.sims[index].push(push)
+        states = sims.step(q_target)
+        self.states = states
+        distance = np.empty(self.num_envs)
+        reached = np.zeros(self.num_envs, dtype=bool)
+        for index, task in enumerate(self.tasks):
+            progress = task.after_step(states.base_pos[index, :2])
+            distance[index], reached[index] = progress.distance, progress.reached
+        terminated = states.fallen.copy()
+        terms = reward_terms(self.reward, commands, states, distance, reached, terminated)
+        rewards = np.sum(list(terms.values()), axis=0)
+        self.last_terms = terms
+        self._prepare(states, np.arange(self.num_envs))
+        truncated = np.array([task.status is not TaskStatus.WALKING for task in self.tasks]) & ~terminated
+        observations = self._observe(np.arange(self.num_envs))
+        self.episode_reward += rewards
+        self.episode_steps += 1
+        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        for index in np.flatnonzero(terminated | truncated):
+            sums = self.episode_terms[index]
+            infos[index]["episode"] = {
+                "r": float(self.episode_reward[index]),
+                "l": int(self.episode_steps[index]),
+                "t": round(time.perf_counter() - self.episode_start[index], 6),
+                "targets_reached": int(self.tasks[index].reached_count + reached[index]),
+                "fell": bool(terminated[index]),
+                "unstable": bool(sims.unstable[index]),
+                "terrain": self.terrain_names[index],
+                "terms": {name: sums.get(name, 0.0) + float(values[index]) for name, values in terms.items()},
+            }
+        for index in range(self.num_envs):
+            sums = self.episode_terms[index]
+            for name, values in terms.items():
+                sums[name] = sums.get(name, 0.0) + float(values[index])
+        return observations, rewards, terminated, truncated, infos
+
+
+class A1ResidualEnv(gym.Env):
+    """``krl/A1Residual-v0``: one robot; the kernel walks, the agent's action is the foot residual.
+
+    Action: 12 numbers in [-1, 1], scaled per axis by ``config.residual.residual_bound`` [m] into the
+    four feet's residuals (leg-major x, y, z, base frame) and low-pass filtered. Observation: the
+    configured features (:mod:`krl.agent.observation`). Reward: :func:`krl.reward.reward_terms`, whose
+    terms are in ``info["reward_terms"]`` every step.
+
+    Args:
+        config: the agent's configuration (default :class:`krl.agent.config.AgentConfig`).
+        kernel_path: the kernel file (default: the config's).
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {
+        "render_modes": ["rgb_array"],
+        "render_fps": round(1.0 / CONTROL_DT),
+    }
+
+    def __init__(
+        self,
+        config: AgentConfig | None = None,
+        kernel_path: str | None = None,
+        render_mode: str | None = None,
+    ) -> None:
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"unknown render_mode {render_mode!r}; supported: rgb_array")
+        self.batch = ResidualEnvBatch(config or AgentConfig(), 1, kernel_path)
+        self.render_mode = render_mode
+        self._renderer = None
+        self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(12,), dtype=np.float32)
+        self.observation_space = gym.spaces.Box(
+            -np.inf, np.inf, shape=(self.batch.observation_size,), dtype=np.float32
+        )
+        self._last_terms: dict[str, float] = {}
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        if seed is not None:
+            self.batch.seed(0, seed)
+        observation = self.batch.reset([0])[0]
+        return observation, {"terrain": self.batch.terrain_names[0]}
+
+    def step(self, action):
+        action = np.asarray(action, dtype=float).reshape(1, 12)
+        observations, rewards, terminated, truncated, infos = self.batch.step(action)
+        info = infos[0]
+        info["reward_terms"] = {name: float(values[0]) for name, values in self.batch.last_terms.items()}
+        return observations[0], float(rewards[0]), bool(terminated[0]), bool(truncated[0]), info
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        if self._renderer is None:
+            from krl.sim.render import FrameRenderer
+
+            self._renderer = FrameRenderer(self.batch.sims.sims[0].model, 640, 480)
+        return self._renderer.render(self.batch.sims.sims[0].data)
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+class ResidualVecEnv(VecEnv):
+    """N residual environments as a Stable-Baselines3 ``VecEnv`` (one process), with automatic resets.
+
+    Environment ``i`` is seeded with ``seed + i``, so it makes the same transitions as an
+    :class:`A1ResidualEnv` reset with ``seed=seed + i``. An ended episode's info carries
+    ``terminal_observation``, ``TimeLimit.truncated`` and ``episode`` (:data:`EPISODE_INFO_KEYS`).
+
+    Args:
+        config: the agent's configuration.
+        num_envs: N.
+        seed: seed of environment 0.
+        kernel_path: the kernel file (default: the config's).
+    """
+
+    def __init__(
+        self, config: AgentConfig, num_envs: int, seed: int = 0, kernel_path: str | None = None
+    ) -> None:
+        self.batch = ResidualEnvBatch(config, num_envs, kernel_path)
+        action_space = gym.spaces.Box(-1.0, 1.0, shape=(12,), dtype=np.float32)
+        observation_space = gym.spaces.Box(
+            -np.inf, np.inf, shape=(self.batch.observation_size,), dtype=np.float32
+        )
+        self.render_mode = None  # SB3 asks; frames come from A1ResidualEnv
+        super().__init__(num_envs, observation_space, action_space)
+        self._seed = seed
+        self._actions: np.ndarray | None = None
+        for index in range(num_envs):
+            self.batch.seed(index, seed + index)
+
+    def reset(self) -> np.ndarray:
+        return self.batch.reset(np.arange(self.num_envs))
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.asarray(actions)
+
+    def step_wait(self):
+        observations, rewards, terminated, truncated, infos = self.batch.step(self._actions)
+        dones = terminated | truncated
+        ended = np.flatnonzero(dones)
+        for index in ended:
+            infos[index]["terminal_observation"] = observations[index]
+            infos[index]["TimeLimit.truncated"] = bool(truncated[index])
+        if len(ended):
+            observations = observations.copy()
+            observations[ended] = self.batch.reset(ended)
+        return observations, rewards.astype(np.float32), dones, infos
+
+    def close(self) -> None:
+        pass
+
+    def seed(self, seed: int | None = None):
+        base = self._seed if seed is None else seed
+        for index in range(self.num_envs):
+            self.batch.seed(index, base + index)
+        return [base + index for index in range(self.num_envs)]
+
+    def get_attr(self, attr_name: str, indices=None):
+        return [getattr(self, attr_name)] * len(self._indices(indices))
+
+    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
+        setattr(self, attr_name, value)
+
+    def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs):
+        raise NotImplementedError("ResidualVecEnv has no per-environment objects to call methods on")
+
+    def env_is_wrapped(self, wrapper_class, indices=None):
+        return [False] * len(self._indices(indices))
+
+    def _indices(self, indices) -> list[int]:
+        if indices is None:
+            return list(range(self.num_envs))
+        if isinstance(indices, int):
+            return [indices]
+        return list(indices)

@@ -1,0 +1,104 @@
+"""The residual agent's observation: named features, concatenated in the configured order.
+
+Every feature is computed for a batch of N robots at once from the step's :class:`ObservationInputs`.
+The default set is the thesis's final one (4.2.8.3); the optional ones are those of Fig. 4.20.
+
+| name | size | unit | what |
+| --- | --- | --- | --- |
+| ``base_lin_vel`` | 3 | m/s | trunk linear velocity, base frame |
+| ``base_ang_vel`` | 3 | rad/s | trunk angular velocity, base frame |
+| ``command`` | 3 | m/s, m/s, rad/s | commanded (v_x, v_y) and yaw rate of the step (heading frame) |
+| ``joint_pos`` | 12 | rad | joint angles, FR FL RR RL × (abduction, hip, knee) |
+| ``joint_vel`` | 12 | rad/s | joint velocities |
+| ``gravity`` | 3 | 1 | gravity direction in the base frame (the thesis's "CoM"), (0, 0, -1) level |
+| ``roll_pitch`` | 2 | rad | trunk roll and pitch |
+| ``residual`` | 12 | m | the previous step's filtered residual δA^lpf_{t-1}, base frame, leg-major |
+| ``foot_contact`` | 4 | 1 | 1 where the foot touched something in the last physics step |
+| ``phase`` | 4 | 1 | the gait's normalised phases |φ| (Eq. 4.6) of the coming step |
+| ``kernel_targets`` | 12 | m | the kernel's foot targets A^ref_t of the coming step, base frame |
+| ``contact_force`` | 4 | N | normal contact force on each foot in the last physics step |
+
+:func:`layout` gives the slices of a configured observation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ObservationInputs:
+    """What the features are computed from, for N robots."""
+
+    state: object
+    """:class:`krl.sim.batch.StateBatch` of the robots' current states."""
+    command: np.ndarray
+    """Velocity commands of the coming step. Shape: (N, 3)."""
+    residual: np.ndarray
+    """Filtered residual of the previous step [m]. Shape: (N, 4, 3)."""
+    normalised_phase: np.ndarray
+    """Normalised phases of the coming step. Shape: (N, 4)."""
+    kernel_targets: np.ndarray
+    """Kernel foot targets of the coming step [m]. Shape: (N, 4, 3)."""
+
+
+@dataclass(frozen=True)
+class Feature:
+    """One observation feature."""
+
+    size: int
+    unit: str
+    compute: Callable[[ObservationInputs], np.ndarray]
+    """``inputs -> (N, size)``."""
+
+
+def _flat(array: np.ndarray) -> np.ndarray:
+    return array.reshape(len(array), -1)
+
+
+FEATURES: dict[str, Feature] = {
+    "base_lin_vel": Feature(3, "m/s", lambda i: i.state.lin_vel_base),
+    "base_ang_vel": Feature(3, "rad/s", lambda i: i.state.ang_vel_base),
+    "command": Feature(3, "m/s, m/s, rad/s", lambda i: i.command),
+    "joint_pos": Feature(12, "rad", lambda i: i.state.joint_pos),
+    "joint_vel": Feature(12, "rad/s", lambda i: i.state.joint_vel),
+    "gravity": Feature(3, "1", lambda i: i.state.projected_gravity),
+    "roll_pitch": Feature(2, "rad", lambda i: i.state.rpy[:, :2]),
+    "residual": Feature(12, "m", lambda i: _flat(i.residual)),
+    "foot_contact": Feature(4, "1", lambda i: i.state.foot_contact.astype(float)),
+    "phase": Feature(4, "1", lambda i: i.normalised_phase),
+    "kernel_targets": Feature(12, "m", lambda i: _flat(i.kernel_targets)),
+    "contact_force": Feature(4, "N", lambda i: i.state.foot_force),
+}
+"""Every observation feature, by name."""
+
+
+def layout(features: Sequence[str]) -> list[dict[str, object]]:
+    """``[{"name", "start", "stop", "size", "unit"}, ...]`` of an observation of ``features``, in order."""
+    rows, start = [], 0
+    for name in features:
+        feature = FEATURES[name]
+        rows.append(
+            {
+                "name": name,
+                "start": start,
+                "stop": start + feature.size,
+                "size": feature.size,
+                "unit": feature.unit,
+            }
+        )
+        start += feature.size
+    return rows
+
+
+def observation_size(features: Sequence[str]) -> int:
+    """Length of an observation of ``features``."""
+    return sum(FEATURES[name].size for name in features)
+
+
+def observe(features: Sequence[str], inputs: ObservationInputs) -> np.ndarray:
+    """The observations of N robots. Shape: (N, observation_size(features)), float32."""
+    return np.concatenate([FEATURES[name].compute(inputs) for name in features], axis=1).astype(np.float32)

@@ -1,0 +1,241 @@
+"""The residual agent's policy file: weights, observation normaliser and metadata, with NumPy inference.
+
+A policy file is one ``.npz`` of plain arrays plus a JSON header, loaded with ``allow_pickle=False``, so
+loading never executes code and evaluation workers need no torch. It holds the actor's part of the
+trained PPO network (the shared layers, the actor's layers and the action layer; tanh activations), the
+running mean and variance of the observations it was trained on, and a header with the agent's whole
+configuration (:class:`krl.agent.config.AgentConfig`), the observation layout, the SHA-256 of the kernel
+it was trained with, and how it was trained (env steps, wall time, seed, software versions). The
+deterministic action is the Gaussian's mean, clipped to [-1, 1]. Stable-Baselines3's own checkpoints
+are kept for resuming training only.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import zipfile
+from dataclasses import dataclass
+from importlib.resources import files
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from krl.agent.config import AgentConfig, AgentConfigError
+from krl.agent.observation import layout, observation_size
+
+FILE_FORMAT = "krl-policy"
+FILE_VERSION = 1
+
+SHIPPED_POLICIES: tuple[str, ...] = ("rp", "base")
+"""Agents krl ships or may ship (``src/krl/agent/policies/agent-<name>.npz``, or a folder
+``agent-<name>/`` of per-seed files); ``agent`` alone means ``rp``."""
+
+
+class PolicyFileError(ValueError):
+    """A policy file is missing, corrupt, of another format, or does not match its kernel; one line."""
+
+
+@dataclass
+class Policy:
+    """A trained residual policy: call :meth:`act` with raw observations."""
+
+    config: AgentConfig
+    layers: list[tuple[np.ndarray, np.ndarray]]
+    """(W (out, in), b (out,)) of every layer from the observation to the action, in order; tanh after
+    each but the last."""
+    obs_mean: np.ndarray
+    """Running mean of the observations. Shape: (D,)."""
+    obs_var: np.ndarray
+    """Running variance of the observations. Shape: (D,)."""
+    obs_clip: float
+    """Normalised observations are clipped to ±obs_clip."""
+    obs_epsilon: float
+    """Added to the variance before the square root."""
+    metadata: dict[str, Any]
+    """The header: ``kernel_sha256``, ``training`` (steps, wall_seconds, seed), ``software``, ``layout``."""
+
+    @property
+    def observation_size(self) -> int:
+        return len(self.obs_mean)
+
+    def normalise(self, observation: np.ndarray) -> np.ndarray:
+        """Observations as the network saw them in training. Shapes: (N, D) -> (N, D)."""
+        scaled = (observation - self.obs_mean) / np.sqrt(self.obs_var + self.obs_epsilon)
+        return np.clip(scaled, -self.obs_clip, self.obs_clip)
+
+    def act(self, observation: np.ndarray) -> np.ndarray:
+        """Deterministic actions in [-1, 1] from raw observations. Shapes: (N, D) -> (N, 12)."""
+        x = np.asarray(observation, dtype=np.float64)
+        if x.ndim != 2 or x.shape[1] != self.observation_size:
+            raise ValueError(
+                f"the policy expects observations of shape (N, {self.observation_size}), got {x.shape}"
+            )
+        x = self.normalise(x)
+        for index, (weight, bias) in enumerate(self.layers):
+            x = x @ weight.T + bias
+            if index < len(self.layers) - 1:
+                x = np.tanh(x)
+        return np.clip(x, -1.0, 1.0)
+
+    def save(self, path: str | Path) -> Path:
+        """Write the policy atomically to ``path`` (``.npz``)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        header = {
+            "format": FILE_FORMAT,
+            "version": FILE_VERSION,
+            "config": self.config.to_json(),
+            "num_layers": len(self.layers),
+            "obs_clip": self.obs_clip,
+            "obs_epsilon": self.obs_epsilon,
+            **self.metadata,
+            "layout": layout(self.config.observation.features),
+        }
+        arrays: dict[str, np.ndarray] = {"obs_mean": self.obs_mean, "obs_var": self.obs_var}
+        for index, (weight, bias) in enumerate(self.layers):
+            arrays[f"W{index}"] = weight.astype(np.float32)
+            arrays[f"b{index}"] = bias.astype(np.float32)
+        arrays["header"] = np.array(json.dumps(header, sort_keys=True))
+        temporary = path.with_name(f".{path.name}.tmp")
+        with open(temporary, "wb") as handle:
+            np.savez(handle, **arrays)
+        os.replace(temporary, path)
+        return path
+
+
+def file_sha256(path: str | Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def load_policy(path: str | Path, kernel_path: str | Path | None = None, check_kernel: bool = True) -> Policy:
+    """Load a policy file, checking its format, shapes and observation layout, and (``check_kernel``)
+    that its kernel (``kernel_path``, default the one its config names) is the file it was trained with."""
+    path = Path(path)
+    if not path.is_file():
+        raise PolicyFileError(f"policy file not found: {path}")
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            arrays = {name: archive[name] for name in archive.files}
+        header = json.loads(str(arrays["header"]))
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as error:
+        raise PolicyFileError(f"policy file {path} is corrupt or not a policy: {error}") from None
+    if not isinstance(header, dict) or header.get("format") != FILE_FORMAT:
+        raise PolicyFileError(f"{path} is not a krl policy file")
+    if header.get("version") != FILE_VERSION:
+        raise PolicyFileError(
+            f"{path} has policy file version {header.get('version')}, expected {FILE_VERSION}"
+        )
+    try:
+        config = AgentConfig.from_json(header["config"], f"{path} config")
+        layers = [
+            (arrays[f"W{i}"].astype(np.float64), arrays[f"b{i}"].astype(np.float64))
+            for i in range(int(header["num_layers"]))
+        ]
+        policy = Policy(
+            config=config,
+            layers=layers,
+            obs_mean=arrays["obs_mean"].astype(np.float64),
+            obs_var=arrays["obs_var"].astype(np.float64),
+            obs_clip=float(header["obs_clip"]),
+            obs_epsilon=float(header["obs_epsilon"]),
+            metadata={k: header[k] for k in ("kernel_sha256", "training", "software") if k in header},
+        )
+    except AgentConfigError as error:
+        raise PolicyFileError(str(error)) from None
+    except (KeyError, TypeError, ValueError) as error:
+        raise PolicyFileError(f"policy file {path} is inconsistent: {error!r}") from None
+    _check(policy, header, path)
+    if check_kernel:
+        check_kernel_file(policy, kernel_path, path)
+    return policy
+
+
+def _check(policy: Policy, header: dict[str, Any], path: Path) -> None:
+    expected = observation_size(policy.config.observation.features)
+    if header.get("layout") != layout(policy.config.observation.features):
+        raise PolicyFileError(
+            f"policy file {path}: its observation layout does not match its configured features"
+        )
+    width = expected
+    if len(policy.obs_mean) != expected or len(policy.obs_var) != expected:
+        raise PolicyFileError(
+            f"policy file {path}: observation normaliser has {len(policy.obs_mean)} entries, "
+            f"the observation has {expected}"
+        )
+    for index, (weight, bias) in enumerate(policy.layers):
+        if weight.ndim != 2 or weight.shape[1] != width or bias.shape != (weight.shape[0],):
+            raise PolicyFileError(
+                f"policy file {path}: layer {index} has shape {weight.shape}; its input must be {width} wide"
+            )
+        width = weight.shape[0]
+    if width != 12:
+        raise PolicyFileError(f"policy file {path}: the last layer gives {width} actions, expected 12")
+    arrays = [policy.obs_mean, policy.obs_var, *(a for layer in policy.layers for a in layer)]
+    if not all(np.isfinite(a).all() for a in arrays) or np.any(policy.obs_var < 0):
+        raise PolicyFileError(f"policy file {path}: non-finite weights or a negative variance")
+
+
+def check_kernel_file(policy: Policy, kernel_path: str | Path | None, source: str | Path) -> Path:
+    """The kernel file of ``policy`` (``kernel_path``, or the one its config names), checked to be the file
+    it was trained with (by SHA-256). Returns its path."""
+    from krl.kernel.registry import resolve_model
+
+    path = Path(kernel_path) if kernel_path is not None else resolve_model(policy.config.residual.kernel)
+    if not path.is_file():
+        raise PolicyFileError(f"policy {source}: its kernel file {path} is missing")
+    recorded = policy.metadata.get("kernel_sha256")
+    actual = file_sha256(path)
+    if recorded != actual:
+        raise PolicyFileError(
+            f"policy {source} was trained with the kernel of SHA-256 {str(recorded)[:12]}…, but {path} has "
+            f"{actual[:12]}…: not the kernel this policy corrects"
+        )
+    return path
+
+
+def shipped_policy_dir() -> Path:
+    return Path(str(files("krl.agent") / "policies"))
+
+
+def policy_artifacts(text: str) -> tuple[str, list[tuple[int | None, Path]]]:
+    """Resolve ``agent:TEXT``: a shipped name (default ``rp``), a policy file, or a folder of per-seed
+    policy files. Returns ``(label name, [(seed or None, path), ...])``; per-seed files carry their seed.
+
+    Raises :class:`PolicyFileError` (one line) when nothing usable is found.
+    """
+    name = text or "rp"
+    if name in SHIPPED_POLICIES:
+        folder, single = shipped_policy_dir() / f"agent-{name}", shipped_policy_dir() / f"agent-{name}.npz"
+        if single.is_file():
+            path = single
+        elif folder.is_dir():
+            path = folder
+        else:
+            raise PolicyFileError(f"krl ships no agent-{name} policy yet (train one with `krl agent train`)")
+    else:
+        path = Path(name)
+        name = path.stem.removeprefix("agent-") if path.is_file() else path.name.removeprefix("agent-")
+    if path.is_file():
+        load_policy(path)
+        return name, [(None, path)]
+    if not path.is_dir():
+        raise PolicyFileError(f"no policy file or folder {str(path)!r}")
+    found = sorted(path.glob("*.npz"))
+    if not found:
+        raise PolicyFileError(f"policy folder {path} holds no .npz policy files")
+    seeded: dict[int, Path] = {}
+    for candidate in found:
+        seed = load_policy(candidate).metadata.get("training", {}).get("seed")
+        if not isinstance(seed, int):
+            raise PolicyFileError(
+                f"policy {candidate} records no training seed (needed in a per-seed folder)"
+            )
+        if seed in seeded:
+            raise PolicyFileError(
+                f"policy folder {path}: {seeded[seed].name} and {candidate.name} share seed {seed}"
+            )
+        seeded[seed] = candidate
+    return name, sorted(seeded.items())

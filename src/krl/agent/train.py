@@ -1,0 +1,233 @@
+"""Training the residual agent with Stable-Baselines3's PPO (thesis Sections 4.2.8-4.2.9).
+
+``train(out, config, seed)`` trains into the run folder ``out``:
+
+| file | what |
+| --- | --- |
+| ``config.json`` | the resolved :class:`krl.agent.config.AgentConfig` |
+| ``run.json`` | seed, kernel file and its SHA-256, krl version |
+| ``checkpoints/<steps>/`` | SB3 model, observation normaliser, ``state.json``; ``latest`` names the newest |
+| ``policy.npz`` | the exported policy (:mod:`krl.agent.policy`), refreshed at every checkpoint |
+| ``progress.csv``, ``events.*`` | the training log, CSV and TensorBoard (:mod:`krl.agent.callbacks`) |
+
+Calling it again on the same folder resumes from the newest checkpoint (an interruption loses at most
+``checkpoint_every`` env steps). The environments restart from fresh episodes on resumption, seeded from
+the run's seed and the checkpoint's step count, so a resumed run is reproducible but not bit-identical to
+an uninterrupted one; an uninterrupted run with the same seed on the same machine is.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+from krl.agent.config import AgentConfig, AgentConfigError
+from krl.agent.policy import file_sha256
+from krl.output import write_atomic
+
+
+class TrainingError(RuntimeError):
+    """A run folder that cannot be used (another config, a corrupt checkpoint); one line."""
+
+
+class LearningRate:
+    """The thesis's learning-rate schedule as SB3 sees it (a function of the progress remaining).
+
+    Every ``learn`` call of :func:`train` ends at ``total_steps``, so the env steps so far are
+    ``(1 - progress_remaining) * total_steps``.
+    """
+
+    def __init__(self, ppo, total_steps: int) -> None:
+        self.ppo = ppo
+        self.total_steps = total_steps
+
+    def __call__(self, progress_remaining: float) -> float:
+        return float(self.ppo.learning_rate_at((1.0 - progress_remaining) * self.total_steps))
+
+
+def _policy_kwargs(config: AgentConfig) -> dict[str, Any]:
+    import torch
+
+    from krl.agent.network import SharedExtractor
+
+    ppo = config.ppo
+    return {
+        "features_extractor_class": SharedExtractor,
+        "features_extractor_kwargs": {"hidden": list(ppo.shared)},
+        "share_features_extractor": True,
+        "net_arch": {"pi": list(ppo.actor), "vf": list(ppo.critic)},
+        "activation_fn": torch.nn.Tanh,
+        "log_std_init": ppo.log_std_init,
+    }
+
+
+def _software() -> dict[str, str]:
+    import mujoco
+    import stable_baselines3
+    import torch
+
+    from krl import __version__
+
+    return {
+        "krl": __version__,
+        "stable_baselines3": stable_baselines3.__version__,
+        "torch": torch.__version__,
+        "mujoco": mujoco.__version__,
+    }
+
+
+def _latest_checkpoint(out: Path) -> Path | None:
+    latest = out / "checkpoints" / "latest"
+    if not latest.is_file():
+        return None
+    path = out / "checkpoints" / latest.read_text().strip()
+    if not (path / "state.json").is_file():
+        raise TrainingError(f"run {out}: checkpoint {path.name} named by checkpoints/latest is incomplete")
+    return path
+
+
+def _open_run(out: Path, config: AgentConfig | None, seed: int | None) -> tuple[AgentConfig, dict[str, Any]]:
+    """Read (resuming) or create the run folder; returns its config and run record."""
+    config_path, run_path = out / "config.json", out / "run.json"
+    if config_path.is_file():
+        try:
+            stored = AgentConfig.from_json(json.loads(config_path.read_text()), str(config_path))
+            run = json.loads(run_path.read_text())
+        except (OSError, ValueError, AgentConfigError) as error:
+            raise TrainingError(f"run {out} cannot be resumed: {error}") from None
+        if config is not None and config != stored:
+            raise TrainingError(
+                f"run {out} was started with another config; use a new --out or drop --config"
+            )
+        if seed is not None and seed != run["seed"]:
+            raise TrainingError(f"run {out} was started with seed {run['seed']}, not {seed}")
+        return stored, run
+    config = config or AgentConfig()
+    from krl.kernel.registry import resolve_model
+
+    kernel_path = resolve_model(config.residual.kernel)
+    if not kernel_path.is_file():
+        raise TrainingError(f"kernel file {kernel_path} not found")
+    from krl.kernel.model import load_kernel
+
+    load_kernel(kernel_path)  # a one-line KernelFileError before anything is written
+    run = {
+        "seed": 0 if seed is None else seed,
+        "kernel_path": str(kernel_path.resolve()),
+        "kernel_sha256": file_sha256(kernel_path),
+        "software": _software(),
+    }
+    out.mkdir(parents=True, exist_ok=True)
+    write_atomic(run_path, (json.dumps(run, indent=2) + "\n").encode())
+    write_atomic(config_path, (json.dumps(config.to_json(), indent=2) + "\n").encode())
+    return config, run
+
+
+def train(
+    out: str | Path,
+    config: AgentConfig | None = None,
+    seed: int | None = None,
+    total_steps: int | None = None,
+    progress: bool = True,
+    log=print,
+) -> dict[str, Any]:
+    """Train (or resume) a residual agent in ``out``; returns a summary (steps, wall time, policy path).
+
+    Args:
+        out: the run folder.
+        config: the agent's configuration (default :class:`AgentConfig`); must match a resumed run's.
+        seed: the run's seed (default 0); must match a resumed run's.
+        total_steps: env steps to train to (default ``config.total_steps``); may extend a finished run.
+        progress: show a progress bar.
+        log: where one-line messages go.
+    """
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.logger import configure
+    from stable_baselines3.common.vec_env import VecNormalize
+    from threadpoolctl import threadpool_limits
+
+    from krl.agent.callbacks import TrainingCallback
+    from krl.agent.workers import ProcessVecEnv
+
+    out = Path(out)
+    config, run = _open_run(out, config, seed)
+    seed = run["seed"]
+    total = int(total_steps or config.total_steps)
+    checkpoint = _latest_checkpoint(out)
+    done_steps, wall_before = 0, 0.0
+    if checkpoint is not None:
+        state = json.loads((checkpoint / "state.json").read_text())
+        done_steps, wall_before = int(state["num_timesteps"]), float(state["wall_seconds"])
+    if done_steps >= total:
+        log(f"run {out} already has {done_steps} env steps (of {total}); nothing to do")
+        return {
+            "out": str(out),
+            "env_steps": done_steps,
+            "wall_seconds": wall_before,
+            "policy": str(out / "policy.npz"),
+        }
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"  # inherited by the spawned workers
+    torch.set_num_threads(1)  # small networks: extra intra-op threads only spin against the env workers
+    env_seed = seed if checkpoint is None else seed + 7919 * (done_steps // config.checkpoint_every + 1)
+    venv = ProcessVecEnv(config, config.workers, config.num_envs, env_seed, run["kernel_path"])
+    num_envs = venv.num_envs
+    try:
+        ppo = config.ppo
+        if checkpoint is None:
+            env = VecNormalize(
+                venv, norm_obs=ppo.normalize_observations, norm_reward=ppo.normalize_rewards, gamma=ppo.gamma
+            )
+            model = PPO(
+                "MlpPolicy",
+                env,
+                learning_rate=LearningRate(ppo, total),
+                n_steps=max(1, ppo.rollout_steps // num_envs),
+                batch_size=ppo.batch_size,
+                n_epochs=ppo.n_epochs,
+                gamma=ppo.gamma,
+                gae_lambda=ppo.gae_lambda,
+                clip_range=ppo.clip_range,
+                ent_coef=ppo.ent_coef,
+                policy_kwargs=_policy_kwargs(config),
+                seed=seed,
+                device="cpu",
+                verbose=0,
+            )
+        else:
+            try:
+                env = VecNormalize.load(str(checkpoint / "normaliser.pkl"), venv)
+                model = PPO.load(
+                    str(checkpoint / "model.zip"),
+                    env=env,
+                    device="cpu",
+                    custom_objects={
+                        "learning_rate": LearningRate(ppo, total),
+                        "lr_schedule": LearningRate(ppo, total),
+                    },
+                )
+            except Exception as error:  # SB3 and pickle raise many types for a damaged file
+                first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+                raise TrainingError(f"checkpoint {checkpoint} is corrupt: {first}") from None
+            model.num_timesteps = done_steps
+            log(f"resuming {out} from {checkpoint.name} ({done_steps} env steps)")
+        model.set_logger(configure(str(out), ["csv", "tensorboard"]))
+        callback = TrainingCallback(out, config, run, wall_before, _software())
+        with threadpool_limits(1, user_api="blas"):
+            model.learn(
+                total - done_steps,
+                callback=callback,
+                reset_num_timesteps=checkpoint is None,
+                progress_bar=progress,
+            )
+        callback.save_checkpoint(model, final=True)
+        return {
+            "out": str(out),
+            "env_steps": int(model.num_timesteps),
+            "wall_seconds": round(callback.wall_seconds(), 1),
+            "policy": str(out / "policy.npz"),
+        }
+    finally:
+        venv.close()

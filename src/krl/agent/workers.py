@@ -1,0 +1,165 @@
+"""Residual environments on several worker processes, as one Stable-Baselines3 ``VecEnv``.
+
+Each worker process (spawn-started, one per core) steps a :class:`krl.agent.env.ResidualVecEnv` of
+``num_envs`` robots; the parent sends every worker its slice of the actions and gathers the results, so
+the workers' physics runs in parallel while the parent waits. Worker ``k``'s environments are seeded
+``seed + k * num_envs + i``: the same environments, in the same order, as one ``ResidualVecEnv`` of
+``workers * num_envs`` robots seeded ``seed``. Workers limit their BLAS to one thread (the batch's small
+matrix products are slower when threads fight over the cores) and die with the parent
+(:mod:`krl.parallel`).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnv
+
+from krl.agent.config import AgentConfig
+
+
+def _worker(connection, parent: int, config_json: dict, num_envs: int, seed: int, kernel_path: str | None):
+    from krl.parallel import _worker_init
+
+    _worker_init(parent)
+    from threadpoolctl import threadpool_limits
+
+    limits = threadpool_limits(1)  # held for the worker's life
+    from krl.agent.env import ResidualVecEnv
+
+    env = ResidualVecEnv(AgentConfig.from_json(config_json), num_envs, seed, kernel_path)
+    try:
+        while True:
+            command, payload = connection.recv()
+            if command == "step":
+                env.step_async(payload)
+                connection.send(env.step_wait())
+            elif command == "reset":
+                connection.send(env.reset())
+            elif command == "seed":
+                connection.send(env.seed(payload))
+            elif command == "close":
+                break
+    except (EOFError, KeyboardInterrupt):
+        pass
+    except Exception as error:  # the parent re-raises it with the worker's message
+        connection.send(("error", f"{type(error).__name__}: {error}"))
+    finally:
+        limits.restore_original_limits()
+        connection.close()
+
+
+class WorkerError(RuntimeError):
+    """An environment worker failed; the message is the worker's error."""
+
+
+class ProcessVecEnv(VecEnv):
+    """``workers`` processes of ``num_envs`` residual environments each.
+
+    Args:
+        config: the agent's configuration.
+        workers: worker processes.
+        num_envs: environments per worker.
+        seed: seed of environment 0.
+        kernel_path: the kernel file (default: the config's).
+    """
+
+    def __init__(
+        self, config: AgentConfig, workers: int, num_envs: int, seed: int = 0, kernel_path: str | None = None
+    ) -> None:
+        from krl.agent.env import ResidualVecEnv
+
+        probe = ResidualVecEnv(config, 1, seed, kernel_path)
+        self.render_mode = None
+        super().__init__(workers * num_envs, probe.observation_space, probe.action_space)
+        self.per_worker = num_envs
+        context = multiprocessing.get_context("spawn")
+        self._connections = []
+        self._processes = []
+        for worker in range(workers):
+            parent_end, child_end = context.Pipe()
+            process = context.Process(
+                target=_worker,
+                args=(
+                    child_end,
+                    os.getpid(),
+                    config.to_json(),
+                    num_envs,
+                    seed + worker * num_envs,
+                    kernel_path,
+                ),
+                daemon=True,
+            )
+            process.start()
+            child_end.close()
+            self._connections.append(parent_end)
+            self._processes.append(process)
+        self._closed = False
+
+    def _gather(self) -> list[Any]:
+        results = []
+        for connection in self._connections:
+            try:
+                result = connection.recv()
+            except EOFError:
+                raise WorkerError("an environment worker exited unexpectedly") from None
+            if isinstance(result, tuple) and len(result) == 2 and result[0] == "error":
+                raise WorkerError(f"environment worker failed: {result[1]}")
+            results.append(result)
+        return results
+
+    def reset(self) -> np.ndarray:
+        for connection in self._connections:
+            connection.send(("reset", None))
+        return np.concatenate(self._gather())
+
+    def step_async(self, actions: np.ndarray) -> None:
+        actions = np.asarray(actions)
+        for k, connection in enumerate(self._connections):
+            connection.send(("step", actions[k * self.per_worker : (k + 1) * self.per_worker]))
+
+    def step_wait(self):
+        results = self._gather()
+        observations = np.concatenate([r[0] for r in results])
+        rewards = np.concatenate([r[1] for r in results])
+        dones = np.concatenate([r[2] for r in results])
+        infos = [info for r in results for info in r[3]]
+        return observations, rewards, dones, infos
+
+    def seed(self, seed: int | None = None):
+        base = 0 if seed is None else seed
+        for k, connection in enumerate(self._connections):
+            connection.send(("seed", base + k * self.per_worker))
+        return [s for seeds in self._gather() for s in seeds]
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        for connection in self._connections:
+            try:
+                connection.send(("close", None))
+            except (BrokenPipeError, OSError):
+                pass
+        for process in self._processes:
+            process.join(timeout=5)
+            if process.is_alive():
+                process.terminate()
+                process.join(timeout=2)
+
+    def get_attr(self, attr_name: str, indices=None):
+        count = self.num_envs if indices is None else len(list(np.atleast_1d(indices)))
+        return [getattr(self, attr_name, None)] * count
+
+    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
+        setattr(self, attr_name, value)
+
+    def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs):
+        raise NotImplementedError("ProcessVecEnv has no per-environment objects to call methods on")
+
+    def env_is_wrapped(self, wrapper_class, indices=None):
+        count = self.num_envs if indices is None else len(list(np.atleast_1d(indices)))
+        return [False] * count

@@ -1,0 +1,138 @@
+"""``krl agent …``: train, run, inspect and export the residual agent."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from krl.cli.common import CliError, emit, run_controller
+from krl.cli.common import add_run_arguments as add_common_run_arguments
+
+
+def _config(args: argparse.Namespace):
+    from krl.agent.config import AgentConfig
+
+    return AgentConfig.load(args.config) if args.config else None
+
+
+def run_train(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from krl.agent.config import AgentConfig
+    from krl.agent.train import train
+
+    config = _config(args)
+    if args.workers is not None or args.num_envs is not None:
+        base = config or AgentConfig()
+        config = replace(
+            base,
+            workers=base.workers if args.workers is None else args.workers,
+            num_envs=base.num_envs if args.num_envs is None else args.num_envs,
+        )
+    summary = train(args.out, config, args.seed, args.steps, progress=not args.quiet)
+    emit(summary, args.json)
+    return 0
+
+
+def _policy(args: argparse.Namespace):
+    from krl.agent.policy import load_policy, policy_artifacts
+
+    name, files = policy_artifacts(args.policy)
+    if len(files) > 1:
+        seeds = dict(files)
+        if args.policy_seed is None:
+            raise CliError(
+                f"agent {name} has one policy per seed ({', '.join(map(str, seeds))}): give --policy-seed"
+            )
+        if args.policy_seed not in seeds:
+            raise CliError(f"agent {name} has no policy for seed {args.policy_seed}")
+        path = seeds[args.policy_seed]
+    else:
+        path = files[0][1]
+    return path, load_policy(path)
+
+
+def run_run(args: argparse.Namespace) -> int:
+    from krl.agent.controller import AgentController
+
+    path, policy = _policy(args)
+    controller = AgentController(policy)
+    summary = run_controller(args, controller)
+    summary["policy"] = str(path)
+    summary["kernel"] = policy.config.residual.kernel
+    emit(summary, args.json)
+    return 0
+
+
+def run_info(args: argparse.Namespace) -> int:
+    from krl.agent.observation import layout
+
+    path, policy = _policy(args)
+    emit(
+        {
+            "policy": str(path),
+            "kernel": policy.config.residual.kernel,
+            "kernel_sha256": policy.metadata.get("kernel_sha256"),
+            "training": policy.metadata.get("training"),
+            "software": policy.metadata.get("software"),
+            "residual_bound": list(policy.config.residual.residual_bound),
+            "alpha": policy.config.residual.alpha,
+            "reward": policy.config.env.reward,
+            "observation": [
+                {"name": row["name"], "slice": f"{row['start']}:{row['stop']}", "unit": row["unit"]}
+                for row in layout(policy.config.observation.features)
+            ],
+        },
+        args.json,
+    )
+    return 0
+
+
+def run_curves(args: argparse.Namespace) -> int:
+    from krl.agent.curves import plot_training_curves
+
+    paths = plot_training_curves([Path(run) for run in args.run], Path(args.out))
+    emit({"figures": [str(p) for p in paths]}, args.json)
+    return 0
+
+
+def register(subparsers) -> None:
+    group = subparsers.add_parser("agent", help="the residual PPO agent").add_subparsers(
+        dest="agent_command", required=True, metavar="AGENT_COMMAND"
+    )
+    p = group.add_parser("train", help="train (or resume) a residual agent with PPO")
+    p.add_argument("--out", required=True, help="run folder; an existing one resumes")
+    p.add_argument("--seed", type=int, help="seed of the run (default 0)")
+    p.add_argument("--config", help="agent config file (.json or .toml; default: the thesis's agent-rp)")
+    p.add_argument("--steps", type=int, help="env steps to train to (default: the config's total_steps)")
+    p.add_argument("--workers", type=int, help="environment processes (default: the config's)")
+    p.add_argument("--num-envs", type=int, help="environments per process (default: the config's)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=run_train)
+
+    def add_policy(parser: argparse.ArgumentParser) -> None:
+        parser.add_argument(
+            "--policy",
+            default="rp",
+            help="shipped agent (rp, base), a policy file or a folder of per-seed files",
+        )
+        parser.add_argument("--policy-seed", type=int, help="with a per-seed folder: which seed's policy")
+
+    p = group.add_parser("run", help="walk the agent to waypoints or at a fixed command")
+    add_common_run_arguments(p)
+    add_policy(p)
+    p.set_defaults(func=run_run)
+
+    p = group.add_parser("info", help="a policy file's metadata and observation layout")
+    add_policy(p)
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=run_info)
+
+    p = group.add_parser(
+        "curves", help="training curves (reward, targets reached, falls vs env steps) as PNG"
+    )
+    p.add_argument("run", nargs="+", help="run folders of krl agent train")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=run_curves)

@@ -1,0 +1,59 @@
+"""PPO training: a tiny run, its files, resumption from the checkpoint, refused mismatches."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import pytest
+
+from krl.agent.config import AgentConfig
+from krl.agent.policy import load_policy
+from krl.agent.train import TrainingError, train
+
+
+def test_tiny_run_writes_policy_and_resumes_from_its_checkpoint(tmp_path, small_config):
+    out = tmp_path / "run"
+    summary = train(out, small_config, seed=3, total_steps=256, progress=False, log=lambda _: None)
+    assert summary["env_steps"] == 256
+    assert (out / "checkpoints" / "latest").read_text().strip() == "00000000256"
+    assert json.loads((out / "run.json").read_text())["seed"] == 3
+    policy = load_policy(out / "policy.npz")
+    assert policy.metadata["training"]["env_steps"] == 256
+    assert policy.metadata["training"]["seed"] == 3
+    messages: list[str] = []
+    summary = train(out, total_steps=512, progress=False, log=messages.append)
+    assert summary["env_steps"] == 512
+    assert messages == [f"resuming {out} from 00000000256 (256 env steps)"]
+    assert load_policy(out / "policy.npz").metadata["training"]["env_steps"] == 512
+    messages.clear()
+    train(out, total_steps=512, progress=False, log=messages.append)
+    assert "nothing to do" in messages[0]
+
+
+def test_a_run_folder_refuses_another_config_or_seed(tmp_path, small_config):
+    out = tmp_path / "run"
+    train(out, small_config, seed=1, total_steps=256, progress=False, log=lambda _: None)
+    with pytest.raises(TrainingError, match="another config"):
+        train(out, replace(small_config, num_envs=3), total_steps=512, progress=False)
+    with pytest.raises(TrainingError, match="seed 1, not 2"):
+        train(out, seed=2, total_steps=512, progress=False)
+
+
+def test_a_corrupt_checkpoint_is_a_one_line_error(tmp_path, small_config):
+    out = tmp_path / "run"
+    train(out, small_config, seed=1, total_steps=256, progress=False, log=lambda _: None)
+    (out / "checkpoints" / "00000000256" / "model.zip").write_bytes(b"not a zip")
+    with pytest.raises(TrainingError, match="corrupt") as caught:
+        train(out, total_steps=512, progress=False, log=lambda _: None)
+    assert "\n" not in str(caught.value)
+
+
+def test_defaults_are_the_thesis_trial_3():
+    ppo = AgentConfig().ppo
+    assert (ppo.learning_rate, ppo.batch_size, ppo.n_epochs, ppo.rollout_steps, ppo.ent_coef) == (
+        1e-3, 4000, 10, 200_000, 5e-6
+    )
+    assert (ppo.shared, ppo.actor, ppo.critic) == ((128, 128), (128,), (64,))
+    assert ppo.learning_rate_at(0) == 1e-3
+    assert ppo.learning_rate_at(3e6) == ppo.learning_rate_at(1.9e7) == pytest.approx(1e-3 * (1 - 3e6 / 2e7))
