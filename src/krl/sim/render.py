@@ -1,35 +1,64 @@
 """Offscreen rendering (PNG frames, videos) with MuJoCo's renderer.
 
-Headless machines need a software OpenGL: install Debian's ``libosmesa6`` and set ``MUJOCO_GL=osmesa``
-(krl sets it when no display is present and nothing else was chosen). ``docs/sim.md`` has the details.
+Headless machines need a software OpenGL: Debian's ``libosmesa6`` with ``MUJOCO_GL=osmesa`` (krl sets it
+when no display is present, nothing else was chosen and the library is installed). Without it, everything
+but rendering works, and a command that renders says which library to install. ``docs/sim.md`` has the
+details.
 """
 
 from __future__ import annotations
 
+import ctypes.util
 import os
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+OSMESA_INSTALL: str = "apt-get install libosmesa6 (with sudo when not root)"
+"""How to install the software OpenGL that offscreen rendering needs on Debian/Ubuntu."""
 
-def has_display() -> bool:
+
+def has_display(environ: Mapping[str, str] | None = None) -> bool:
     """Whether an X11 or Wayland display is available for interactive windows."""
-    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    environ = os.environ if environ is None else environ
+    return bool(environ.get("DISPLAY") or environ.get("WAYLAND_DISPLAY"))
+
+
+def offscreen_backend(
+    environ: Mapping[str, str], find_library: Callable[[str], str | None] = ctypes.util.find_library
+) -> dict[str, str]:
+    """The environment variables to set for offscreen rendering (empty: leave MuJoCo's choice alone).
+
+    OSMesa is chosen only on a machine without a display, when the user chose no ``MUJOCO_GL``, and when
+    ``libOSMesa`` can be found: selecting it without the library would make ``import mujoco`` fail (PyOpenGL
+    raises at import), which must not break commands that never render.
+    """
+    if "MUJOCO_GL" in environ or has_display(environ) or not find_library("OSMesa"):
+        return {}
+    return {"MUJOCO_GL": "osmesa", "PYOPENGL_PLATFORM": environ.get("PYOPENGL_PLATFORM", "osmesa")}
 
 
 def ensure_offscreen_backend() -> None:
-    """Pick OSMesa for ``MUJOCO_GL`` on a machine without a display, unless the user chose a backend.
-
-    Must run before ``mujoco`` is first imported: ``import krl`` does it.
-    """
-    if "MUJOCO_GL" not in os.environ and not has_display():
-        os.environ["MUJOCO_GL"] = "osmesa"
-        os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+    """Apply :func:`offscreen_backend` to this process. Must run before ``mujoco`` is first imported:
+    ``import krl`` does it."""
+    os.environ.update(offscreen_backend(os.environ))
 
 
 class RenderError(RuntimeError):
     """Offscreen rendering is not available (no OpenGL backend)."""
+
+
+def render_unavailable(error: BaseException | str) -> str:
+    """The one-line message of a renderer that could not start."""
+    backend = os.environ.get("MUJOCO_GL", "unset")
+    first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+    if not has_display() and not ctypes.util.find_library("OSMesa"):
+        return f"offscreen rendering needs the OSMesa library (libOSMesa not found): {OSMESA_INSTALL}"
+    return (
+        f"offscreen rendering unavailable (MUJOCO_GL={backend}): {first}; on Debian/Ubuntu: {OSMESA_INSTALL}"
+    )
 
 
 @dataclass(frozen=True)
@@ -66,11 +95,7 @@ class FrameRenderer:
         try:
             self._renderer = mujoco.Renderer(model, height=height, width=width)
         except Exception as error:  # the GL backends raise several unrelated types
-            backend = os.environ.get("MUJOCO_GL", "default")
-            raise RenderError(
-                f"offscreen rendering unavailable (MUJOCO_GL={backend}): {error}; "
-                "on Debian/Ubuntu install libosmesa6 and set MUJOCO_GL=osmesa"
-            ) from error
+            raise RenderError(render_unavailable(error)) from error
         view = view or CameraView()
         self._camera = mujoco.MjvCamera()
         if view.lookat is None:

@@ -1,0 +1,40 @@
+"""The offscreen backend choice: OSMesa only when there is no display, no user choice, and the library."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+from krl.sim.render import offscreen_backend
+
+
+def found(name: str) -> str:
+    return f"lib{name}.so.8"
+
+
+def missing(name: str) -> None:
+    return None
+
+
+def test_osmesa_is_chosen_on_a_headless_machine_that_has_it():
+    assert offscreen_backend({}, found) == {"MUJOCO_GL": "osmesa", "PYOPENGL_PLATFORM": "osmesa"}
+
+
+def test_nothing_is_chosen_without_the_library_a_display_or_against_the_users_choice():
+    assert offscreen_backend({}, missing) == {}
+    assert offscreen_backend({"DISPLAY": ":0"}, found) == {}
+    assert offscreen_backend({"MUJOCO_GL": "egl"}, found) == {}
+
+
+def test_import_krl_and_krl_help_work_without_any_gl_library():
+    environment = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
+    environment.pop("DISPLAY", None)
+    code = (
+        "import ctypes.util; ctypes.util.find_library = lambda name: None\n"
+        "import sys; from krl.cli import main\n"
+        "sys.exit(main(['terrains']))\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], env=environment, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert "heightfield" in result.stdout
