@@ -88,6 +88,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from krl.bench.mpc import bench_mpc
 
         result = bench_mpc(**given(seconds=args.seconds))
+    elif args.target == "agent":
+        from krl.bench.agent import bench_agent
+
+        options = given(num_envs=args.num_envs, steps=args.steps, repeats=args.repeats)
+        result = bench_agent(**options, **given(train_steps=args.train_steps))
     else:  # argparse restricts the choices
         raise CliError(f"unknown benchmark {args.target!r}")
     emit(result, args.json)
@@ -117,16 +122,18 @@ def register(subparsers) -> None:
     add_terrain_arguments(p)
     p.set_defaults(func=cmd_view)
 
+    from krl.bench.agent import bench_agent
     from krl.bench.mpc import bench_mpc
     from krl.bench.sim import bench_sim
 
     p = subparsers.add_parser("bench", help="run a benchmark and print its figures")
-    p.add_argument("target", choices=["sim", "mpc"], help="what to benchmark")
+    p.add_argument("target", choices=["sim", "mpc", "agent"], help="what to benchmark")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument(
         "--steps",
         type=int,
-        help=f"sim: control steps per timed loop (default {default_of(bench_sim, 'steps')})",
+        help=f"sim, agent: control steps per timed loop (default {default_of(bench_sim, 'steps')} for sim, "
+        f"{default_of(bench_agent, 'steps')} for agent)",
     )
     p.add_argument(
         "--repeats",
@@ -137,5 +144,16 @@ def register(subparsers) -> None:
         "--seconds",
         type=float,
         help=f"mpc: simulated seconds of walking (default {default_of(bench_mpc, 'seconds'):g})",
+    )
+    p.add_argument(
+        "--num-envs",
+        type=int,
+        help=f"agent: robots per environment process (default {default_of(bench_agent, 'num_envs')})",
+    )
+    p.add_argument(
+        "--train-steps",
+        type=int,
+        help="agent: env steps of the PPO training measurement "
+        f"(default {default_of(bench_agent, 'train_steps')})",
     )
     p.set_defaults(func=cmd_bench)

@@ -1,0 +1,133 @@
+"""``krl bench agent``: the residual environment's and PPO training's throughput against bare MuJoCo.
+
+Measured in one run, on the training height field:
+
+* ``bare_steps_per_s``: one ``MjData`` stepped by ``mj_step(nstep=5)`` (one 200 Hz control step) with
+  constant controls holding the standing pose: the floor of a control step on one core.
+* ``env_steps_per_s``: a :class:`krl.agent.env.ResidualVecEnv` of ``num_envs`` robots in this process
+  (one core) with random actions: everything in the step (kernel, filter, IK, PD and physics, state
+  readout, waypoint task, pushes, reward, observation, automatic resets).
+* ``env_ratio`` = env / bare (target >= 0.5).
+* ``policy_us_per_step``: NumPy inference of a policy of the default shape, per robot, in a batch of
+  ``num_envs`` and alone.
+* ``train_steps_per_s``: end-to-end PPO training (:func:`krl.agent.train.train`, every core, workers of
+  ``num_envs`` robots, the default PPO settings with a shorter rollout) over ``train_steps`` env steps;
+  ``train_ratio`` = train / (cores × bare) (target >= 0.3).
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import tempfile
+import time
+from dataclasses import replace
+
+import mujoco
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from krl.robots.a1.constants import KP, STANDING_JOINT_ANGLES
+from krl.sim.model import build_model
+from krl.sim.robot import A1Sim
+from krl.timing import SUBSTEPS
+
+ENV_TARGET_RATIO = 0.5
+TRAIN_TARGET_RATIO = 0.3
+
+
+def _bare_rate(steps: int) -> float:
+    sim = A1Sim(build_model("heightfield", seed=0))
+    data = mujoco.MjData(sim.model)
+    mujoco.mj_copyData(data, sim.model, sim.data)
+    data.ctrl[:12] = KP * STANDING_JOINT_ANGLES
+    start = time.perf_counter()
+    for _ in range(steps):
+        mujoco.mj_step(sim.model, data, nstep=SUBSTEPS)
+    return steps / (time.perf_counter() - start)
+
+
+def _env_rate(config, num_envs: int, steps: int) -> float:
+    from krl.agent.env import ResidualVecEnv
+
+    env = ResidualVecEnv(config, num_envs, seed=0)
+    env.reset()
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, (steps, num_envs, 12))
+    start = time.perf_counter()
+    for k in range(steps):
+        env.step_async(actions[k])
+        env.step_wait()
+    return steps * num_envs / (time.perf_counter() - start)
+
+
+def _policy_times(config, num_envs: int, repeats: int = 200) -> tuple[float, float]:
+    from krl.agent.observation import observation_size
+    from krl.agent.policy import Policy
+
+    size = observation_size(config.observation.features)
+    widths = [size, *config.ppo.shared, *config.ppo.actor, 12]
+    rng = np.random.default_rng(0)
+    layers = [
+        (rng.standard_normal((widths[i + 1], widths[i])) * 0.1, np.zeros(widths[i + 1]))
+        for i in range(len(widths) - 1)
+    ]
+    policy = Policy(config, layers, np.zeros(size), np.ones(size), 10.0, 1e-8, {})
+    batch, single = rng.standard_normal((num_envs, size)), rng.standard_normal((1, size))
+    times = []
+    for observation in (batch, single):
+        start = time.perf_counter()
+        for _ in range(repeats):
+            policy.act(observation)
+        times.append((time.perf_counter() - start) / repeats / len(observation) * 1e6)
+    return times[0], times[1]
+
+
+def bench_agent(num_envs: int = 16, steps: int = 300, repeats: int = 3, train_steps: int = 50_000) -> dict:
+    """Run the measurements (module docstring); medians of ``repeats`` alternating loops."""
+    from krl.agent.config import AgentConfig
+    from krl.agent.train import train
+
+    config = AgentConfig(num_envs=num_envs)
+    bare, env = [], []
+    with threadpool_limits(1):
+        for _ in range(repeats):
+            bare.append(_bare_rate(steps * 4))
+            env.append(_env_rate(config, num_envs, steps))
+        batched_us, single_us = _policy_times(config, num_envs)
+    bare_rate, env_rate = statistics.median(bare), statistics.median(env)
+    cores = os.cpu_count() or 1
+    rollout = max(4000, train_steps // 2)
+    train_config = replace(
+        config,
+        workers=cores,
+        total_steps=train_steps,
+        checkpoint_every=train_steps,
+        ppo=replace(
+            config.ppo,
+            rollout_steps=rollout,
+            lr_decay_horizon=float(train_steps),
+            lr_decay_stop=float(train_steps),
+        ),
+    )
+    with tempfile.TemporaryDirectory() as folder:
+        summary = train(os.path.join(folder, "run"), train_config, seed=0, progress=False, log=lambda _: None)
+    train_rate = summary["env_steps"] / summary["wall_seconds"]
+    return {
+        "benchmark": "agent",
+        "terrain": "heightfield",
+        "num_envs": num_envs,
+        "bare_steps_per_s": round(bare_rate, 1),
+        "env_steps_per_s": round(env_rate, 1),
+        "env_ratio": round(env_rate / bare_rate, 3),
+        "env_target_ratio": ENV_TARGET_RATIO,
+        "policy_us_per_step": {"batched": round(batched_us, 2), "single": round(single_us, 2)},
+        "cores": cores,
+        "train_steps": summary["env_steps"],
+        "train_steps_per_s": round(train_rate, 1),
+        "train_ratio": round(train_rate / (cores * bare_rate), 3),
+        "train_target_ratio": TRAIN_TARGET_RATIO,
+        "meets_targets": env_rate / bare_rate >= ENV_TARGET_RATIO
+        and train_rate / (cores * bare_rate) >= TRAIN_TARGET_RATIO,
+        "mujoco": mujoco.__version__,
+    }
