@@ -50,9 +50,10 @@ def test_results_are_in_job_order_whatever_the_worker_count():
 def test_a_failing_job_raises_and_leaves_no_worker():
     import multiprocessing
 
+    before = set(multiprocessing.active_children())  # other tests' children, if any
     with pytest.raises(ValueError, match="job 1 failed"):
         run_jobs(_job, [("square", 2.0, 0), ("fail", 0.0, 1), ("square", 2.0, 2)], workers=2)
-    assert multiprocessing.active_children() == []
+    assert set(multiprocessing.active_children()) <= before
 
 
 def test_sigterm_in_process_raises_interrupted_naming_the_finished_jobs():
