@@ -1,0 +1,45 @@
+"""``krl agent run|info|curves`` and ``krl evaluate --controller agent:PATH`` end to end (smoke-sized)."""
+
+from __future__ import annotations
+
+import json
+
+from agent_fakes import make_policy
+
+from krl.agent.config import AgentConfig
+from krl.cli import main
+
+
+def test_agent_run_and_info_with_a_policy_file(tmp_path, capsys):
+    path = make_policy(AgentConfig()).save(tmp_path / "agent-zero.npz")
+    assert main(["agent", "run", "--policy", str(path), "--target", "1.0,0.0", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["targets_reached"] == 1 and not summary["fell"]
+    assert main(["agent", "info", "--policy", str(path), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert [row["name"] for row in info["observation"]][:2] == ["base_lin_vel", "base_ang_vel"]
+    assert info["observation"][-1] == {"name": "foot_contact", "slice": "50:54", "unit": "1"}
+
+
+def test_agent_errors_are_one_line(tmp_path, capsys):
+    (tmp_path / "bad.npz").write_text("not a policy")
+    assert main(["agent", "run", "--policy", str(tmp_path / "bad.npz"), "--targets", "1"]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith("krl: error: policy file") and error.count("\n") == 1
+    (tmp_path / "cfg.json").write_text('{"observation": {"features": ["joint_pos", "nonsense"]}}')
+    assert (
+        main(["agent", "train", "--out", str(tmp_path / "run"), "--config", str(tmp_path / "cfg.json")]) == 2
+    )
+    error = capsys.readouterr().err
+    assert "unknown observation feature 'nonsense'" in error and error.count("\n") == 1
+    assert not (tmp_path / "run").exists()
+
+
+def test_evaluate_scores_an_agent_on_a_course(tmp_path, capsys):
+    path = make_policy(AgentConfig()).save(tmp_path / "agent-zero.npz")
+    out = tmp_path / "eval"
+    args = ["evaluate", "--controller", f"agent:{path}", "--course", "flat", "--workers", "1"]
+    assert main([*args, "--out", str(out), "--quiet", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    flat = summary["controllers"]["agent-zero"]["flat"]
+    assert flat["runs"] == 4 and flat["fall_rate"] == 0.0
