@@ -23,7 +23,9 @@ def test_numpy_inference_matches_sb3_with_its_normaliser(small_config):
     from krl.agent.train import _policy_kwargs
 
     env = VecNormalize(ResidualVecEnv(small_config, 2, seed=0))
-    model = PPO("MlpPolicy", env, n_steps=64, batch_size=64, policy_kwargs=_policy_kwargs(small_config), seed=0)
+    model = PPO(
+        "MlpPolicy", env, n_steps=64, batch_size=64, policy_kwargs=_policy_kwargs(small_config), seed=0
+    )
     raw = env.reset()
     for _ in range(30):
         env.step_async(np.zeros((2, 12)))

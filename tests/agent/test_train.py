@@ -52,7 +52,11 @@ def test_a_corrupt_checkpoint_is_a_one_line_error(tmp_path, small_config):
 def test_defaults_are_the_thesis_trial_3():
     ppo = AgentConfig().ppo
     assert (ppo.learning_rate, ppo.batch_size, ppo.n_epochs, ppo.rollout_steps, ppo.ent_coef) == (
-        1e-3, 4000, 10, 200_000, 5e-6
+        1e-3,
+        4000,
+        10,
+        200_000,
+        5e-6,
     )
     assert (ppo.shared, ppo.actor, ppo.critic) == ((128, 128), (128,), (64,))
     assert ppo.learning_rate_at(0) == 1e-3
