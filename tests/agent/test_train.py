@@ -61,3 +61,55 @@ def test_defaults_are_the_thesis_trial_3():
     assert (ppo.shared, ppo.actor, ppo.critic) == ((128, 128), (128,), (64,))
     assert ppo.learning_rate_at(0) == 1e-3
     assert ppo.learning_rate_at(3e6) == ppo.learning_rate_at(1.9e7) == pytest.approx(1e-3 * (1 - 3e6 / 2e7))
+
+
+def _children(pid: int) -> list[int]:
+    try:
+        text = open(f"/proc/{pid}/task/{pid}/children").read()
+    except OSError:
+        return []
+    return [int(child) for child in text.split()]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as handle:
+            return handle.read().split(") ")[-1][0] != "Z"
+    except OSError:
+        return False
+
+
+def test_kill_9_of_training_leaves_no_worker_and_resumes_from_the_checkpoint(tmp_path, small_config):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "run"
+    config = replace(small_config, total_steps=1_000_000)
+    (tmp_path / "config.json").write_text(json.dumps(config.to_json()))
+    code = (
+        "import sys; from krl.agent.config import AgentConfig; from krl.agent.train import train\n"
+        f"train({str(out)!r}, AgentConfig.load({str(tmp_path / 'config.json')!r}), seed=4, progress=False)\n"
+    )
+    process = subprocess.Popen([sys.executable, "-c", code])
+    try:
+        deadline = time.monotonic() + 120
+        while not (out / "checkpoints" / "latest").is_file():
+            assert time.monotonic() < deadline and process.poll() is None, "no checkpoint was written"
+            time.sleep(0.2)
+        workers = _children(process.pid)
+        assert workers, "the training has no worker process"
+    finally:
+        os.kill(process.pid, signal.SIGKILL)
+        process.wait()
+    deadline = time.monotonic() + 5
+    while any(_alive(pid) for pid in workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(_alive(pid) for pid in workers), "a worker outlived its parent's kill -9"
+    kept = int((out / "checkpoints" / "latest").read_text())
+    messages: list[str] = []
+    summary = train(out, total_steps=kept + 256, progress=False, log=messages.append)
+    assert messages[0].startswith(f"resuming {out} from {kept:011d}")
+    assert summary["env_steps"] == kept + 256
