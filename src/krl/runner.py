@@ -18,26 +18,10 @@ from krl.control.commands import CommandGenerator, CommandParams
 from krl.control.frames import realised_velocity
 from krl.control.types import Controller, JointCommand
 from krl.sim.robot import A1Sim, RobotState
-from krl.task.waypoints import (
-    TARGET_DISTANCE,
-    TARGET_TIME_LIMIT,
-    TaskStatus,
-    WaypointStep,
-    WaypointTask,
-    random_targets,
-)
+from krl.task.waypoints import TARGET_TIME_LIMIT, TaskStatus, WaypointStep, WaypointTask
 from krl.timing import CONTROL_DT
 
-__all__ = [
-    "HOLD_RAMP",
-    "HOLD_SETTLE",
-    "TARGET_DISTANCE",
-    "TARGET_TIME_LIMIT",
-    "RunResult",
-    "Runner",
-    "StepRecord",
-    "random_targets",
-]
+__all__ = ["HOLD_RAMP", "HOLD_SETTLE", "RunResult", "Runner", "StepRecord"]
 
 HOLD_RAMP: float = 1.0
 """Default time over which a fixed command rises from zero [s]."""

@@ -10,9 +10,10 @@ from krl.kernel.controller import KernelController
 from krl.kernel.features import VARIANTS, input_names, output_size
 from krl.kernel.model import Kernel, NetworkConfig, load_kernel
 from krl.kernel.registry import SHIPPED_MODELS, shipped_model_path
-from krl.runner import Runner, random_targets
+from krl.runner import Runner
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim
+from krl.task import random_targets
 
 
 def random_kernel(variant):
@@ -52,6 +53,22 @@ def test_heights_are_validated():
         controller.set_heights(0.3, 0.25)
     with pytest.raises(ValueError, match="ride_height"):
         controller.set_heights(0.1, 0.1)
+
+
+@pytest.mark.parametrize("variant", [v for v in VARIANTS if v != "ext"])
+def test_heights_are_refused_by_a_kernel_without_height_inputs(variant):
+    for heights in ({"step_height": 0.12}, {"ride_height": 0.22}):
+        with pytest.raises(ValueError, match=f"kernel-{variant} has no step or ride height input"):
+            KernelController(random_kernel(variant), **heights)
+    with pytest.raises(ValueError, match="no step or ride height input"):
+        KernelController(random_kernel(variant)).set_heights(0.1, 0.22)
+
+
+def test_cli_kernel_run_refuses_a_height_for_kernel_base(capsys):
+    argv = ["kernel", "run", "--model", "base", "--step-height", "0.12", "--command", "0.3,0,0"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "kernel-base has no step or ride height input" in err and err.count("\n") == 1
 
 
 @pytest.mark.parametrize("name", SHIPPED_MODELS)

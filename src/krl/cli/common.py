@@ -12,6 +12,7 @@ import argparse
 import dataclasses
 import inspect
 import json
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -20,11 +21,29 @@ class CliError(Exception):
     """A user-facing error: printed as ``krl: error: <message>`` with exit status 2."""
 
 
+def json_text(value: Any, **options: Any) -> str:
+    """Strict JSON of a command's result, the one printer of every ``--json``: a non-finite number (NaN,
+    ±inf, which JSON cannot hold) becomes ``null``, as JavaScript's ``JSON.stringify`` writes it, so the
+    output always parses; ``options`` go to :func:`json.dumps`."""
+    return json.dumps(_finite(value), allow_nan=False, **options)
+
+
+def _finite(value: Any) -> Any:
+    """``value`` with every non-finite float (nested in dicts, lists and tuples) replaced by None."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {key: _finite(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(item) for item in value]
+    return value
+
+
 def emit(result: dict[str, Any], as_json: bool) -> None:
-    """Print a command's result: indented JSON, or one ``key: value`` line per entry (a nested mapping
-    indented under its key, a list of mappings one item per line)."""
+    """Print a command's result: indented JSON (:func:`json_text`), or one ``key: value`` line per entry
+    (a nested mapping indented under its key, a list of mappings one item per line)."""
     if as_json:
-        print(json.dumps(result, indent=2))
+        print(json_text(result, indent=2))
     else:
         print("\n".join(_text_lines(result, "")))
 
@@ -53,7 +72,7 @@ def print_json_summary(summary: dict[str, Any], digest=None) -> None:
             for name, figure in summary["figures"].items()
         },
     }
-    print(json.dumps(printable, indent=2, ensure_ascii=False))
+    print(json_text(printable, indent=2, ensure_ascii=False))
 
 
 def given(**options: Any) -> dict[str, Any]:
@@ -198,8 +217,11 @@ def run_controller(args: argparse.Namespace, controller, step_hook=None) -> dict
     """
     import numpy as np
 
-    from krl.runner import Runner, random_targets
+    from krl.runner import Runner
+    from krl.task import random_targets
 
+    if args.command is None and not args.target and args.targets < 1:
+        raise CliError(f"--targets must be >= 1, got {args.targets}")
     sim = build_sim(args)
     recorder = None
     if args.video:

@@ -39,9 +39,11 @@ from krl.control.gait import normalised_phase
 from krl.control.mpc import MPCError
 from krl.data.schema import FIELDS, canonical_json
 from krl.data.storage import directory_lock, open_dataset, write_manifest, write_part
+from krl.kernel.features import input_columns
 from krl.progress import progress_bar
-from krl.runner import TARGET_DISTANCE, TARGET_TIME_LIMIT, Runner, StepRecord, random_targets
+from krl.runner import Runner, StepRecord
 from krl.sim.robot import SimulationUnstableError
+from krl.task import TARGET_DISTANCE, TARGET_TIME_LIMIT, random_targets
 from krl.timing import CONTROL_DT
 
 MODES: tuple[str, ...] = ("base", "ext", "dyn2")
@@ -181,24 +183,17 @@ class _EpisodeRecorder:
         # the phases the action used: act() advances the gait clock before deciding
         phases = expert.gait.phases
         normalised = normalised_phase(phases, expert.gait.params.swing_ratio)
-        buf["base_lin_vel"][n] = before.lin_vel_base
-        buf["base_ang_vel"][n] = before.ang_vel_base
-        buf["v_cmd"][n] = record.command[:2]
-        buf["yaw_cmd"][n] = record.command[2]
-        buf["q"][n] = before.joint_pos
-        buf["dq"][n] = before.joint_vel
+        # the kernel's inputs, built as every controller that feeds a kernel builds them
+        for name, column in input_columns(
+            before, record.command, normalised, params.step_height, params.ride_height
+        ).items():
+            buf[name][n] = column[0]
         buf["ddq"][n] = (after.joint_vel - before.joint_vel) / CONTROL_DT
         buf["phase"][n] = phases
-        buf["normalised_phase"][n] = normalised
-        buf["sine_phase"][n] = np.sin(normalised * np.pi)
         buf["stance"][n] = last.stance
         buf["foot_pos"][n] = before.foot_pos_base.reshape(-1)
-        buf["com"][n] = (before.com - before.base_pos) @ before.base_rot
-        buf["projected_gravity"][n] = before.projected_gravity
         buf["foot_ref"][n] = last.foot_targets.reshape(-1)
         buf["foot_pos_next"][n] = after.foot_pos_base.reshape(-1)
-        buf["step_height"][n] = params.step_height
-        buf["ride_height"][n] = params.ride_height
         buf["stance_duration"][n] = params.stance_duration
         buf["episode"][n] = self.episode
         buf["target_index"][n] = self.target_index

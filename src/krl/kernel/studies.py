@@ -178,9 +178,10 @@ def functional(kernel_path: str, seeds: Sequence[int] = WALK_SEEDS, targets: int
 
     from krl.kernel.controller import KernelController
     from krl.kernel.model import load_kernel
-    from krl.runner import Runner, random_targets
+    from krl.runner import Runner
     from krl.sim.model import build_model
     from krl.sim.robot import A1Sim
+    from krl.task import random_targets
 
     kernel = load_kernel(kernel_path)
     for seed in seeds:

@@ -13,7 +13,7 @@ from krl.analysis.expert.plan import THESIS_FIGURE, Settings
 from krl.analysis.expert.runs import SWEEP_STANCE
 from krl.analysis.panels import style
 from krl.output import FIG_DPI
-from krl.runner import TARGET_TIME_LIMIT
+from krl.task import TARGET_TIME_LIMIT
 
 COM_COLUMNS: tuple[str, ...] = (
     "label",

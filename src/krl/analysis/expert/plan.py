@@ -13,7 +13,7 @@ import numpy as np
 from krl.analysis.common import velocity_sweep
 from krl.analysis.expert.runs import SWEEP_STANCE, HoldJob, Job, WalkJob
 from krl.control.expert import NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT
-from krl.runner import TARGET_DISTANCE
+from krl.task import TARGET_DISTANCE
 
 FIGURES: tuple[str, ...] = ("com-variance", "ride-height", "step-height", "velocity")
 """The figures, in the order ``all`` makes them."""
@@ -57,7 +57,7 @@ class Settings:
 
 
 def _waypoints(settings: Settings) -> tuple[tuple[float, float], ...]:
-    from krl.runner import random_targets
+    from krl.task import random_targets
 
     distance = QUICK_TARGET_DISTANCE if settings.quick else TARGET_DISTANCE
     points = random_targets(np.random.default_rng(settings.seed), settings.targets, (0.0, 0.0), distance)

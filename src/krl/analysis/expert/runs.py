@@ -20,7 +20,7 @@ from krl.analysis.expert.metrics import (
     gait_cycle,
 )
 from krl.control.expert import NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT
-from krl.runner import TARGET_TIME_LIMIT
+from krl.task import TARGET_TIME_LIMIT
 from krl.timing import CONTROL_DT
 
 SWEEP_STANCE: float = 0.2

@@ -14,7 +14,8 @@ from krl.analysis.kernel.context import FR
 from krl.analysis.kernel.metrics import CYCLE_POINTS
 from krl.control.expert import NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT
 from krl.robots.a1.constants import NUM_LEGS
-from krl.runner import HOLD_RAMP, TARGET_TIME_LIMIT
+from krl.runner import HOLD_RAMP
+from krl.task import TARGET_TIME_LIMIT
 
 HOLD_DURATION: float = 8.0
 """Length of the expert's fixed-command runs of ``symmetry`` and ``walk-gait`` [s]."""

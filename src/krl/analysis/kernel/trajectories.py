@@ -14,7 +14,7 @@ from krl.analysis.kernel.recording import expert_params, kernel_columns, predict
 from krl.analysis.panels import shade, style
 from krl.output import FIG_DPI
 from krl.robots.a1.constants import LEG_NAMES
-from krl.runner import TARGET_DISTANCE, TARGET_TIME_LIMIT
+from krl.task import TARGET_DISTANCE, TARGET_TIME_LIMIT
 
 TRAJECTORY_TARGETS: int = 3
 """Waypoints the expert walks to in ``trajectories``."""
@@ -29,7 +29,7 @@ def trajectories_figure(kernel, run: FigureRun):
 
     Returns ``(table, csv columns, csv rows, matplotlib figure)``.
     """
-    from krl.runner import random_targets
+    from krl.task import random_targets
 
     distance = QUICK_TRAJECTORY_DISTANCE if run.quick else TARGET_DISTANCE
     count = 1 if run.quick else TRAJECTORY_TARGETS
