@@ -10,4 +10,7 @@ COMPARISON_EPOCHS: int = 10
 """Training epochs per run when the thesis compares kernels: each tuning trial (Table A.2) and each run
 of Tables 4.3-4.5."""
 
-__all__ = ["COMPARISON_EPOCHS", "THESIS_SEEDS"]
+THESIS_PUSH_MAGNITUDES: tuple[float, ...] = tuple(float(m) for m in range(250, 901, 50))
+"""Push forces of the robustness sweep, Table 5.5: 250-900 N in steps of 50 [N]."""
+
+__all__ = ["COMPARISON_EPOCHS", "THESIS_PUSH_MAGNITUDES", "THESIS_SEEDS"]

@@ -20,6 +20,7 @@ from krl.reward import EVALUATION_REWARD, RewardParams, reward_terms
 from krl.runner import Runner, StepRecord
 from krl.sim.robot import SimulationUnstableError
 from krl.task.waypoints import TARGET_TIME_LIMIT, WaypointStep
+from krl.thesis import THESIS_PUSH_MAGNITUDES
 
 RUN_METRICS: tuple[str, ...] = (
     "targets",
@@ -164,7 +165,7 @@ class PushSweep:
     magnitude is the only thing that changes along the sweep.
     """
 
-    magnitudes: tuple[float, ...] = tuple(float(m) for m in range(250, 901, 50))
+    magnitudes: tuple[float, ...] = THESIS_PUSH_MAGNITUDES
     """Push forces [N] (thesis Table 5.5: 250-900 N in steps of 50)."""
     attempts: int = 10
     """Attempts per magnitude."""

@@ -15,6 +15,7 @@ from typing import Any
 from krl.eval.courses import THESIS_COURSES
 from krl.eval.evaluate import PUSH_DIR, load_record, summarise_course, summarise_push
 from krl.output import csv_bytes, figure_bytes, write_atomic
+from krl.thesis import THESIS_PUSH_MAGNITUDES
 
 THESIS_NAMES = {
     "expert-stance0.3": "MPC (τ_stance=0.3)",
@@ -64,7 +65,6 @@ THESIS_PUSH: dict[str, tuple[float, ...]] = {  # Table 5.5, success rate at 250,
     "Kernel": (1, 1, 1, 0.8, 0.5, 0.3, 0.3, 0, 0, 0, 0, 0, 0, 0),
     "Agent-rp": (1, 1, 1, 1, 0.9, 0.8, 0.9, 0.8, 0.7, 0.4, 0.8, 0.6, 0.3, 0.2),
 }
-THESIS_PUSH_MAGNITUDES = tuple(float(m) for m in range(250, 901, 50))
 
 
 def collect(
