@@ -139,3 +139,66 @@ def test_training_learns_and_resumes_exactly(tmp_path, synthetic_dataset):
     other = TrainConfig(network=NetworkConfig(hidden=(32, 32)), epochs=5, batch_size=64)
     with pytest.raises(ValueError, match="other settings"):
         train_kernel(dataset, other, tmp_path / "resumed", progress=False, tensorboard=False)
+
+
+def test_a_kernel_file_whose_layers_do_not_chain_says_so(tmp_path):
+    config = NetworkConfig(hidden=(4,))
+    weights = [np.zeros((4, 7)), np.zeros(4), np.zeros((12, 5)), np.zeros(12)]  # 4 hidden units, W2 takes 5
+    kernel = Kernel("base", config, weights, np.zeros(7), np.ones(7), np.zeros(12), np.ones(12), {})
+    path = kernel.save(tmp_path / "unchained.npz")
+    with pytest.raises(KernelFileError) as info:
+        load_kernel(path)
+    message = str(info.value)
+    assert "layer 2" in message and "takes 5 inputs" in message and "gives 4" in message
+    assert "number of weight arrays" not in message
+    short = Kernel("base", config, weights[:3], np.zeros(7), np.ones(7), np.zeros(12), np.ones(12), {})
+    with pytest.raises(KernelFileError, match="3 weight arrays, a 1-hidden-layer network has 4"):
+        load_kernel(short.save(tmp_path / "short.npz"))
+
+
+def test_a_failed_training_run_leaves_its_out_folder_usable(tmp_path, synthetic_dataset):
+    config = TrainConfig(network=NetworkConfig(hidden=(8,)), epochs=1, batch_size=64, threads=1)
+    one_target = synthetic_dataset(targets=1)
+    one_target.content_hash = "one-target"
+    out = tmp_path / "run"
+    with pytest.raises(ValueError, match="need at least 2 targets"):
+        train_kernel(one_target, config, out, progress=False, tensorboard=False)
+    assert not out.exists()
+    result = train_kernel(synthetic_dataset(), config, out, progress=False, tensorboard=False)
+    assert result.kernel_path.exists()
+
+
+@pytest.mark.parametrize(
+    "content",
+    [b"not a checkpoint", "truncated", "a list"],
+)
+def test_a_corrupt_checkpoint_is_one_line_naming_the_file(tmp_path, synthetic_dataset, content):
+    dataset = synthetic_dataset(targets=4, per_target=20)
+    config = TrainConfig(network=NetworkConfig(hidden=(8,)), epochs=2, batch_size=64, threads=1)
+
+    def stop(epoch, _):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        train_kernel(dataset, config, tmp_path, progress=False, tensorboard=False, on_epoch=stop)
+    checkpoint = tmp_path / "checkpoint.pt"
+    if content == "truncated":
+        checkpoint.write_bytes(checkpoint.read_bytes()[:300])
+    elif content == "a list":
+        torch.save([1, 2], checkpoint)
+    else:
+        checkpoint.write_bytes(content)
+    with pytest.raises(ValueError) as info:
+        train_kernel(dataset, config, tmp_path, progress=False, tensorboard=False)
+    message = str(info.value)
+    assert str(checkpoint) in message and "\n" not in message and "weights_only" not in message
+
+
+def test_training_that_diverges_is_one_line(tmp_path, synthetic_dataset):
+    dataset = synthetic_dataset(targets=4, per_target=20)
+    dataset["foot_ref"] = dataset["foot_ref"] * np.inf  # labels no network can fit
+    dataset["foot_pos_next"] = dataset["foot_ref"]
+    config = TrainConfig(network=NetworkConfig(hidden=(8,)), epochs=2, batch_size=64, threads=1)
+    with np.errstate(invalid="ignore"), pytest.raises(ValueError, match=r"epoch 0: .* not finite") as info:
+        train_kernel(dataset, config, tmp_path, progress=False, tensorboard=False)
+    assert "\n" not in str(info.value)

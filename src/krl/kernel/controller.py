@@ -16,7 +16,7 @@ from krl.control.expert import RIDE_HEIGHT_RANGE, STEP_HEIGHT_RANGE
 from krl.control.gait import GaitGenerator, gait_params
 from krl.control.kinematics import inverse_kinematics
 from krl.control.types import JointCommand
-from krl.kernel.features import HISTORY, features_from_columns, input_columns
+from krl.kernel.features import HISTORY, features_from_columns, input_columns, input_names
 from krl.kernel.model import Kernel
 from krl.kernel.registry import training_settings
 from krl.robots.a1.constants import NUM_LEGS
@@ -30,8 +30,9 @@ class KernelController:
         kernel: the trained kernel.
         gait: gait name; default: the gait of the kernel's training data.
         stance_duration: τ_stance [s]; default: that of the training data.
-        step_height, ride_height: kernel-ext's height inputs [m] (ignored by other variants);
-            default: the expert settings of the training data (for ext data, the nominal heights).
+        step_height, ride_height: kernel-ext's height inputs [m]; default: the expert settings of the
+            training data (for ext data, the nominal heights). A variant without height inputs refuses
+            them (ValueError) rather than ignoring them.
     """
 
     def __init__(
@@ -49,18 +50,22 @@ class KernelController:
         self.gait_name: str = gait
         """Name of the gait fed to the kernel (Table 4.1)."""
         self.gait = GaitGenerator(gait_params(gait, stance_duration=stance_duration))
-        self.step_height = 0.0
-        self.ride_height = 0.0
-        self.set_heights(
-            trained.step_height if step_height is None else step_height,
-            trained.ride_height if ride_height is None else ride_height,
-        )
+        self.takes_heights: bool = "step_height" in input_names(kernel.variant)
+        """Whether the kernel has step and ride height inputs (kernel-ext)."""
+        if not self.takes_heights and (step_height is not None or ride_height is not None):
+            raise self._no_heights()
+        self.step_height = float(trained.step_height if step_height is None else step_height)
+        self.ride_height = float(trained.ride_height if ride_height is None else ride_height)
+        if self.takes_heights:
+            self.set_heights(self.step_height, self.ride_height)
         self._history: deque[dict[str, np.ndarray]] = deque(maxlen=HISTORY)
         self.last_targets: np.ndarray | None = None
         """Foot targets of the last step, base frame [m]. Shape: (4, 3)."""
 
     def set_heights(self, step_height: float, ride_height: float) -> None:
         """Set kernel-ext's step and ride height inputs [m] (validated against the training ranges)."""
+        if not self.takes_heights:
+            raise self._no_heights()
         for name, value, (low, high) in (
             ("step_height", step_height, STEP_HEIGHT_RANGE),
             ("ride_height", ride_height, RIDE_HEIGHT_RANGE),
@@ -68,6 +73,11 @@ class KernelController:
             if not low <= value <= high:
                 raise ValueError(f"{name} must be in [{low}, {high}] m, got {value}")
         self.step_height, self.ride_height = float(step_height), float(ride_height)
+
+    def _no_heights(self) -> ValueError:
+        return ValueError(
+            f"kernel-{self.kernel.variant} has no step or ride height input (only kernel-ext has them)"
+        )
 
     def reset(self, state: RobotState) -> None:
         self.gait.reset()

@@ -95,8 +95,18 @@ class Kernel:
             x = np.maximum(x, 0.0) if self.network.activation == "relu" else np.tanh(x)
         return x * self.output_std + self.output_mean
 
+    @property
+    def weight_count(self) -> int:
+        """Weight arrays the architecture has: W and b per layer, and with batch norm gamma, beta, mean and
+        var per hidden layer."""
+        return len(self.network.hidden) * self._per_hidden + 2
+
+    @property
+    def _per_hidden(self) -> int:
+        return 6 if self.network.batch_norm else 2
+
     def _layers(self) -> list[dict[str, np.ndarray]]:
-        per_hidden = 6 if self.network.batch_norm else 2
+        per_hidden = self._per_hidden
         layers, i = [], 0
         for _ in self.network.hidden:
             keys = ("W", "b", "gamma", "beta", "mean", "var")[:per_hidden]
@@ -179,17 +189,38 @@ def _check_shapes(kernel: Kernel, path: Path) -> None:
             f"kernel file {path}: kernel-{kernel.variant} must map {expected_in} inputs to {expected_out} "
             f"outputs, the file has {kernel.input_size} -> {kernel.output_size}"
         )
+    if len(kernel.weights) != kernel.weight_count:
+        layers = len(kernel.network.hidden)
+        norm = " with batch norm" if kernel.network.batch_norm else ""
+        raise KernelFileError(
+            f"kernel file {path}: {len(kernel.weights)} weight arrays, a {layers}-hidden-layer network{norm} "
+            f"has {kernel.weight_count}"
+        )
     width = kernel.input_size
-    try:
-        for layer in kernel._layers():
-            if layer["W"].shape[1] != width or layer["b"].shape != (layer["W"].shape[0],):
-                raise KernelFileError(f"kernel file {path}: layer shapes do not chain ({layer['W'].shape})")
-            width = layer["W"].shape[0]
-    except (IndexError, ValueError) as error:
-        raise KernelFileError(f"kernel file {path}: wrong number of weight arrays ({error})") from None
+    for number, layer in enumerate(kernel._layers(), start=1):
+        matrix = layer["W"]
+        if matrix.ndim != 2:
+            raise KernelFileError(
+                f"kernel file {path}: layer {number}'s weight matrix has shape {matrix.shape}, not 2-D"
+            )
+        if matrix.shape[1] != width:
+            raise KernelFileError(
+                f"kernel file {path}: layers do not chain: layer {number} takes {matrix.shape[1]} inputs, "
+                + (f"layer {number - 1} gives {width}" if number > 1 else f"the kernel has {width}")
+            )
+        width = matrix.shape[0]
+        for name, vector in layer.items():
+            if name != "W" and vector.shape != (width,):
+                raise KernelFileError(
+                    f"kernel file {path}: layer {number}'s {name} has shape {vector.shape}, "
+                    f"expected ({width},)"
+                )
     if width != kernel.output_size:
         raise KernelFileError(
             f"kernel file {path}: last layer gives {width} outputs, expected {kernel.output_size}"
         )
-    if not all(np.isfinite(w).all() for w in kernel.weights) or np.any(kernel.input_std <= 0):
-        raise KernelFileError(f"kernel file {path}: non-finite weights or non-positive normaliser scale")
+    normalisers = (kernel.input_mean, kernel.input_std, kernel.output_mean, kernel.output_std)
+    if not all(np.isfinite(array).all() for array in (*kernel.weights, *normalisers)):
+        raise KernelFileError(f"kernel file {path}: non-finite weights or normalisers")
+    if np.any(kernel.input_std <= 0) or np.any(kernel.output_std <= 0):
+        raise KernelFileError(f"kernel file {path}: non-positive normaliser scale")

@@ -228,7 +228,6 @@ def train_kernel(
     import torch
 
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     dataset_hash = dataset.content_hash
     this_run = run_hash(config, dataset_hash)
     config_path = out / CONFIG_NAME
@@ -240,14 +239,16 @@ def train_kernel(
                 f"{out} holds a training run with other settings or data (run {saved.get('run_hash')}, "
                 f"this one {this_run}); choose another --out"
             )
-    else:
+    # Every check of the data comes before the first write, so a refused run leaves --out as it was.
+    data = data or prepare_data(dataset, config)
+    if not config_path.exists():
+        out.mkdir(parents=True, exist_ok=True)
         _write_json(
             config_path, {"run_hash": this_run, "dataset_hash": dataset_hash, "config": config.to_json()}
         )
 
     if config.threads:
         torch.set_num_threads(config.threads)
-    data = data or prepare_data(dataset, config)
     x_train, y_train = data["x_train"], data["y_train"]
     x_val, y_val = data["x_val"], data["y_val"]
     input_mean, input_std = x_train.mean(0), x_train.std(0)
@@ -282,20 +283,7 @@ def train_kernel(
         "seconds": 0.0,
     }
     if checkpoint_path.exists():
-        try:
-            checkpoint = torch.load(checkpoint_path, weights_only=True)
-        except Exception as error:  # torch raises several types for damaged files
-            raise ValueError(
-                f"checkpoint {checkpoint_path} is corrupt ({error}); delete it to start over"
-            ) from None
-        if checkpoint.get("run_hash") != this_run:
-            raise ValueError(f"checkpoint {checkpoint_path} belongs to another run; choose another --out")
-        net.load_state_dict(checkpoint["net"])
-        optimizer.load_state_dict(checkpoint["optimizer"])
-        scheduler.load_state_dict(checkpoint["scheduler"])
-        generator.set_state(checkpoint["generator"])
-        torch.set_rng_state(checkpoint["torch_rng"])
-        state = checkpoint["state"]
+        state = _resume(checkpoint_path, this_run, net, optimizer, scheduler, generator)
 
     writer = None
     if tensorboard:
@@ -332,6 +320,11 @@ def train_kernel(
             scheduler.step()
             val_l1 = validate()
             epoch = state["epoch"]
+            if not np.isfinite(val_l1):
+                raise ValueError(
+                    f"epoch {epoch}: the validation L1 is not finite ({val_l1}); training diverged "
+                    "(try a lower --lr, with another --out)"
+                )
             state["seconds"] += time.perf_counter() - started
             state["history"].append(
                 {
@@ -403,6 +396,43 @@ def train_kernel(
         history=state["history"],
         kernel_path=kernel_path,
     )
+
+
+def _resume(checkpoint_path: Path, this_run: str, net, optimizer, scheduler, generator) -> dict[str, Any]:
+    """Restore the network, optimiser, schedule and random states from a checkpoint; return the loop state.
+
+    Raises ValueError with one line naming the file when it is not a checkpoint of this run (torch's own
+    messages run over several lines and suggest loading with ``weights_only=False``, which would run
+    pickled code, so only the error's type is kept).
+    """
+    import torch
+
+    try:
+        checkpoint = torch.load(checkpoint_path, weights_only=True)
+    except Exception as error:  # torch raises several types for damaged files
+        raise ValueError(
+            f"checkpoint {checkpoint_path} is corrupt or not a krl training checkpoint "
+            f"({type(error).__name__}); delete it to start over"
+        ) from None
+    if not isinstance(checkpoint, dict):
+        raise ValueError(
+            f"checkpoint {checkpoint_path} is not a krl training checkpoint (it holds a "
+            f"{type(checkpoint).__name__}); delete it to start over"
+        )
+    if checkpoint.get("run_hash") != this_run:
+        raise ValueError(f"checkpoint {checkpoint_path} belongs to another run; choose another --out")
+    try:
+        net.load_state_dict(checkpoint["net"])
+        optimizer.load_state_dict(checkpoint["optimizer"])
+        scheduler.load_state_dict(checkpoint["scheduler"])
+        generator.set_state(checkpoint["generator"])
+        torch.set_rng_state(checkpoint["torch_rng"])
+        return checkpoint["state"]
+    except Exception as error:  # missing keys, tensors of other shapes, foreign objects
+        raise ValueError(
+            f"checkpoint {checkpoint_path} is damaged ({type(error).__name__} restoring it); "
+            "delete it to start over"
+        ) from None
 
 
 def _json_safe(value: Any) -> Any:
