@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from krl.data.schema import FIELDS, MANIFEST_NAME
+from krl.data.schema import FIELDS, MANIFEST_NAME, DatasetError, load_dataset
 from krl.data.storage import (
     LOCK_NAME,
     directory_lock,
@@ -92,3 +92,82 @@ def test_a_part_is_the_bytes_its_sha256_names_and_the_manifest_counts_it(tmp_pat
     }
     again = open_dataset(tmp_path, Plan(), SETTINGS)  # resumable: the part is kept
     assert [p["episode"] for p in again["parts"]] == [1]
+
+
+def write_dataset(directory, episodes):
+    """A dataset of the given episodes' columns (``{field: array}`` each), written as collection writes."""
+    directory.mkdir()
+    manifest = open_dataset(directory, Plan(), SETTINGS)
+    for episode, columns in enumerate(episodes):
+        rows = len(columns["episode"])
+        counts = {"episode": episode, "rows": rows, "targets": 2, "targets_reached": 2, "falls": 0}
+        part = write_part(directory, columns, {**counts, "timeouts": 0, "unstable": 0}, manifest["metadata"])
+        manifest["parts"].append(part)
+    write_manifest(directory, manifest)
+    return manifest
+
+
+def random_columns(rows=10, seed=0):
+    rng = np.random.default_rng(seed)
+    return {f.name: rng.uniform(-1.0, 1.0, size=(rows, *f.shape)).astype(f.dtype) for f in FIELDS}
+
+
+def test_non_finite_rows_are_refused_naming_the_part_the_column_and_the_rows(tmp_path, capsys):
+    from krl.cli import main
+
+    bad = random_columns(seed=1)
+    bad["q"][[2, 7], 4] = np.nan
+    bad["q"][7, 5] = np.inf
+    write_dataset(tmp_path / "ds", [random_columns(), bad])  # sha256 and content hash match the NaN rows
+    with pytest.raises(DatasetError) as info:
+        load_dataset(tmp_path / "ds")
+    message = str(info.value)
+    assert "part-00001.parquet" in message and "column q" in message and "2 of 10 rows" in message
+    assert "\n" not in message
+    out = tmp_path / "run"
+    for argv in (
+        ["kernel", "train", "--data", str(tmp_path / "ds"), "--out", str(out), "--quiet"],
+        ["kernel", "eval", "--data", str(tmp_path / "ds"), "--json"],
+    ):
+        assert main(argv) == 2
+        captured = capsys.readouterr()
+        assert "column q" in captured.err and captured.err.count("\n") == 1 and captured.out == ""
+    assert not out.exists()
+
+
+def test_a_part_whose_rows_differ_from_its_content_hash_is_refused(tmp_path):
+    directory = tmp_path / "ds"
+    manifest = write_dataset(directory, [random_columns(), random_columns(seed=1)])
+    stale = manifest["parts"][1]["content_hash"]
+    changed = random_columns(seed=1)
+    changed["foot_ref"][3, 0] += 0.01
+    rewritten = write_part(
+        directory, changed, {**manifest["parts"][1], "unstable": 0}, manifest["metadata"]
+    )  # a modified part whose sha256 the manifest was told, but not its content hash
+    manifest["parts"][1] = {**rewritten, "content_hash": stale}
+    write_manifest(directory, manifest)
+    with pytest.raises(DatasetError, match=r"part-00001\.parquet: its rows do not match its content_hash"):
+        load_dataset(directory)
+
+
+def test_a_manifest_whose_content_hash_is_not_its_parts_is_refused(tmp_path):
+    directory = tmp_path / "ds"
+    write_dataset(directory, [random_columns()])
+    path = directory / MANIFEST_NAME
+    manifest = json.loads(path.read_text())
+    manifest["content_hash"] = "0" * 64
+    path.write_text(json.dumps(manifest))
+    with pytest.raises(DatasetError, match=r"manifest\.json: content_hash .* is not the hash of its parts"):
+        load_dataset(directory)
+
+
+def test_a_consistent_dataset_loads_and_a_column_subset_is_still_checked(tmp_path):
+    directory = tmp_path / "ds"
+    columns = random_columns()
+    write_dataset(directory, [columns])
+    ds = load_dataset(directory, columns=["q"])
+    np.testing.assert_array_equal(ds["q"], columns["q"])
+    columns["dq"][0, 0] = np.nan  # a column that was not asked for
+    write_dataset(tmp_path / "nan", [columns])
+    with pytest.raises(DatasetError, match="column dq"):
+        load_dataset(tmp_path / "nan", columns=["q"])

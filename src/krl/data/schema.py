@@ -277,12 +277,36 @@ def read_manifest(directory: Path) -> dict[str, Any]:
     for part in parts:
         if not isinstance(part, dict) or any(key not in part for key in required):
             raise DatasetError(f"{path}: malformed part entry {part!r}")
+    ordered = sorted(parts, key=lambda p: p["episode"])
+    try:
+        derived = dataset_hash(metadata["settings"], (str(p["content_hash"]) for p in ordered))
+    except (TypeError, ValueError) as error:
+        raise DatasetError(f"{path}: settings that are not plain JSON ({error})") from None
+    if manifest.get("content_hash") != derived:
+        raise DatasetError(
+            f"{path}: content_hash {str(manifest.get('content_hash'))[:12]} is not the hash of its parts "
+            f"and settings ({derived[:12]}); the manifest was edited"
+        )
     return manifest
 
 
-def read_part(path: Path, entry: Mapping[str, Any], columns: Sequence[str] | None = None):
-    """Read one part file listed in a manifest after checking its sha256, schema version and row count.
+def non_finite_rows(columns: Mapping[str, np.ndarray]) -> dict[str, int]:
+    """Float columns holding NaN or ±inf: ``{name: number of rows with one or more such values}``."""
+    bad = {}
+    for name, values in columns.items():
+        if np.issubdtype(values.dtype, np.floating):
+            rows = int((~np.isfinite(values)).reshape(len(values), -1).any(axis=1).sum())
+            if rows:
+                bad[name] = rows
+    return bad
 
+
+def read_part(path: Path, entry: Mapping[str, Any], columns: Sequence[str] | None = None):
+    """Read one part file listed in a manifest and check it: its sha256 (the file's bytes), schema version
+    and row count, that its rows hash to its ``content_hash`` (so the dataset's hash is the hash of the
+    rows, not only what the manifest says), and that no float column holds NaN or ±inf.
+
+    Every column is read, whatever ``columns`` asks for, since the content hash covers them all.
     Returns ``(columns dict, part metadata dict)``; DatasetError naming the file on any problem.
     """
     import pyarrow as pa
@@ -295,7 +319,7 @@ def read_part(path: Path, entry: Mapping[str, Any], columns: Sequence[str] | Non
         raise DatasetError(f"{path}: sha256 mismatch (file corrupt, truncated or modified)")
     names = FIELD_NAMES if columns is None else tuple(columns)
     try:
-        table = pq.read_table(path, columns=list(names))
+        table = pq.read_table(path)
     except (OSError, pa.ArrowException, ValueError) as error:
         message = str(error).splitlines()[0] if str(error) else type(error).__name__
         raise DatasetError(f"{path}: unreadable part file ({message})") from None
@@ -309,8 +333,20 @@ def read_part(path: Path, entry: Mapping[str, Any], columns: Sequence[str] | Non
         part_meta = json.loads(meta.get(METADATA_KEY, b"{}"))
     except json.JSONDecodeError:
         raise DatasetError(f"{path}: corrupt key-value metadata") from None
-    out = {name: _column_to_numpy(table.column(name), field_spec(name)) for name in names}
-    return out, part_meta
+    try:
+        every = {f.name: _column_to_numpy(table.column(f.name), f) for f in FIELDS}
+    except (KeyError, pa.ArrowException, ValueError) as error:
+        raise DatasetError(f"{path}: columns of another layout ({error})") from None
+    bad = non_finite_rows(every)
+    if bad:
+        listed = ", ".join(f"column {name}: {rows} of {table.num_rows} rows" for name, rows in bad.items())
+        raise DatasetError(f"{path}: NaN or infinite values ({listed})")
+    if content_hash(every) != entry["content_hash"]:
+        raise DatasetError(
+            f"{path}: its rows do not match its content_hash in the manifest (the file was modified "
+            "and its sha256 updated)"
+        )
+    return {name: every[name] for name in names}, part_meta
 
 
 # --- the dataset -----------------------------------------------------------------------------------
@@ -413,13 +449,14 @@ class Dataset:
 def load_dataset(path: str | Path, columns: Sequence[str] | None = None) -> Dataset:
     """Load a dataset directory (or its ``manifest.json``) written by :mod:`krl.data.collect`.
 
-    Every listed part's sha256, schema version and row count is checked; a missing, corrupt or truncated
-    part or manifest raises :class:`DatasetError` naming the file. Part files not in the manifest
-    (an episode interrupted between writing its part and the manifest) are ignored.
+    Every listed part's sha256, schema version, row count and content hash is checked, and every float
+    column must be finite; a missing, corrupt, truncated or modified part or manifest, or a NaN or
+    infinite value, raises :class:`DatasetError` naming the file (and the column). Part files not in the
+    manifest (an episode interrupted between writing its part and the manifest) are ignored.
 
     Args:
         path: the dataset directory or its manifest file.
-        columns: load only these fields (default: all).
+        columns: keep only these fields (default: all); every part is still read whole to check it.
     """
     path = Path(path)
     directory = path.parent if path.name == MANIFEST_NAME and path.is_file() else path
@@ -458,5 +495,6 @@ __all__ = [
     "dataset_hash",
     "field_spec",
     "load_dataset",
+    "non_finite_rows",
     "read_manifest",
 ]
