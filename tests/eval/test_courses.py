@@ -56,6 +56,8 @@ def test_a_users_file_loads_and_its_fingerprint_follows_its_content(tmp_path):
         ('name = "flat"', 'name = "flat"\nparams = { bumps = 3 }', "terrain: .*bumps"),
         ("d_min = 0.5", "d_min = 0.5\nspeed = 3", "unknown key"),
         ("[[0.0, 0.0, 0.0]]", "[[1.8, 0.0, 0.0]]", r"starts\[0\] is within d_min"),
+        ("[2.0, 2.0]]", "[1e12, 2.0]]", r"waypoints\[1\] = \(1e\+12, 2\) m lies outside .* \[-100, 100\]"),
+        ("[[0.0, 0.0, 0.0]]", "[[0.0, -150.0, 0.0]]", r"starts\[0\] = \(0, -150\) m lies outside"),
     ],
 )
 def test_bad_course_files(tmp_path, old, new, message):
@@ -64,6 +66,15 @@ def test_bad_course_files(tmp_path, old, new, message):
     with pytest.raises(CourseError, match=message) as info:
         load_course(path)
     assert "\n" not in str(info.value) and str(path) in str(info.value)
+
+
+def test_a_course_on_a_height_field_stays_on_the_field(tmp_path):
+    path = tmp_path / "off.toml"
+    path.write_text(GOOD.replace('name = "flat"', 'name = "sinusoid"'))
+    load_course(path)
+    path.write_text(GOOD.replace('name = "flat"', 'name = "sinusoid"').replace("[2.0, 0.0],", "[20.0, 0.0],"))
+    with pytest.raises(CourseError, match=r"waypoints\[0\] = \(20, 0\) m lies outside .*\[-12.5, 12.5\]"):
+        load_course(path)
 
 
 def test_unknown_course_name_and_broken_toml(tmp_path):

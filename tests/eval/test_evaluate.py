@@ -72,7 +72,7 @@ def test_a_changed_course_or_a_corrupt_file_is_refused(tmp_path, tiny):
     evaluate.execute(evaluate.course_tasks(spec, [load_course(tiny)], [0]), out)
     tiny.write_text(TINY.replace("[3.0, 0.0]", "[4.0, 0.0]"))
     changed = evaluate.course_tasks(spec, [load_course(tiny)], [0])
-    with pytest.raises(evaluate.EvaluationError, match="different controller, course or sweep"):
+    with pytest.raises(evaluate.EvaluationError, match="made by a different course than this run"):
         evaluate.execute(changed, out)
     (out / "kernel-base" / "tiny" / "start0.json").write_text("{not json")
     with pytest.raises(evaluate.EvaluationError, match="corrupt result file"):
@@ -186,3 +186,114 @@ def test_video_of_the_first_run(tmp_path, tiny):
     evaluate.execute(tasks, tmp_path / "out")
     video = tmp_path / "v" / "kernel-base" / "tiny-start0.mp4"
     assert video.stat().st_size > 1000
+
+
+def evaluate_argv(out, *options):
+    return ["evaluate", *options, "--out", str(out), "--workers", "1", "--quiet", "--json"]
+
+
+def test_a_users_kernel_file_named_like_a_shipped_one_keeps_its_own_results(tmp_path, tiny, capsys):
+    """The issue's case: kernel and kernel:X/kernel-base.npz (a copy of kernel-ext) on one course."""
+    import shutil
+
+    from krl.kernel.registry import shipped_model_path
+
+    copy = tmp_path / "X" / "kernel-base.npz"
+    copy.parent.mkdir()
+    shutil.copy(shipped_model_path("ext"), copy)
+    user = parse_controller(f"kernel:{copy}")
+    assert user.label == f"kernel-base-{user.content_hash[:6]}" != parse_controller("kernel").label
+    out = tmp_path / "EVZ"
+    controllers = ["--controller", "kernel", "--controller", f"kernel:{copy}"]
+    argv = evaluate_argv(out, *controllers, "--course", str(tiny))
+    assert main(argv) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert (summary["runs"], summary["ran"]) == (4, 4)
+    assert sorted(summary["controllers"]) == sorted(["kernel-base", user.label])
+    stored = sorted(str(p.relative_to(out)) for p in out.rglob("*.json"))
+    assert len(stored) == 4 and f"{user.label}/tiny/start0.json" in stored
+    base, ext = (json.loads((out / name / "tiny/start0.json").read_text()) for name in summary["controllers"])
+    assert base["metrics"] != ext["metrics"]
+    assert main(argv) == 0  # and a re-run finds both, each made by its own controller
+    assert json.loads(capsys.readouterr().out)["stored"] == 4
+
+
+def test_a_kernel_npz_takes_its_folders_name(tmp_path):
+    import shutil
+
+    from krl.kernel.registry import shipped_model_path
+
+    paths = {}
+    for folder, model in (("mine", "base"), ("kernel-ext", "ext")):
+        paths[folder] = tmp_path / folder / "kernel.npz"
+        paths[folder].parent.mkdir()
+        shutil.copy(shipped_model_path(model), paths[folder])
+    assert parse_controller(f"kernel:{paths['mine']}").label == "kernel-mine"
+    ext = parse_controller(f"kernel:{paths['kernel-ext']}")
+    assert ext.label == f"kernel-ext-{ext.content_hash[:6]}"  # "ext" is a shipped kernel's name
+
+
+def test_two_different_files_of_one_label_are_refused_before_anything_is_written(tmp_path, tiny, capsys):
+    import shutil
+
+    from krl.kernel.registry import shipped_model_path
+
+    paths = []
+    for run, model in (("a", "base"), ("b", "ext")):
+        paths.append(tmp_path / run / "x" / "kernel.npz")
+        paths[-1].parent.mkdir(parents=True)
+        shutil.copy(shipped_model_path(model), paths[-1])
+    out = tmp_path / "out"
+    controllers = ["--controller", f"kernel:{paths[0]}", "--controller", f"kernel:{paths[1]}"]
+    assert main(evaluate_argv(out, *controllers, "--course", str(tiny))) == 2
+    err = capsys.readouterr().err
+    assert "two different controllers are labelled 'kernel-x'" in err and str(paths[1]) in err
+    assert err.count("\n") == 1 and not out.exists()
+
+
+def test_two_courses_of_one_name_are_refused_before_anything_is_written(tmp_path, tiny, capsys):
+    mine = tmp_path / "mine.toml"
+    mine.write_text(TINY.replace('name = "tiny"', 'name = "flat"'))
+    out = tmp_path / "out"
+    assert main(evaluate_argv(out, "--controller", "kernel", "--course", "flat", "--course", str(mine))) == 2
+    err = capsys.readouterr().err
+    assert "two different courses are named 'flat'" in err and str(mine) in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_the_same_course_or_controller_twice_runs_once(tmp_path, tiny, capsys):
+    controllers = ["--controller", "kernel", "--controller", "kernel:base"]
+    argv = evaluate_argv(tmp_path, *controllers, "--course", str(tiny), "--course", str(tiny))
+    assert main(argv) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert (summary["runs"], summary["ran"]) == (2, 2) and list(summary["controllers"]) == ["kernel-base"]
+
+
+def test_two_different_runs_never_share_a_result_file(tmp_path, tiny):
+    from dataclasses import replace
+
+    course = load_course(tiny)
+    other = replace(course, waypoints=((4.0, 0.0),))  # same name, other content
+    tasks = evaluate.course_tasks(parse_controller("kernel"), [course, other], [0])
+    with pytest.raises(evaluate.EvaluationError, match=r"tiny/start0\.json would hold two different runs"):
+        evaluate.execute(tasks, tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+    kernel = parse_controller("kernel")
+    impostor = replace(parse_controller("kernel:ext"), label=kernel.label)
+    tasks = [*evaluate.course_tasks(kernel, [course], [0]), *evaluate.course_tasks(impostor, [course], [0])]
+    with pytest.raises(evaluate.EvaluationError, match=r"two different runs .*controller"):
+        evaluate.execute(tasks, tmp_path / "out")
+
+
+def test_a_refused_evaluation_writes_nothing(tmp_path, tiny, capsys):
+    out = tmp_path / "out"
+    assert main([*evaluate_argv(out, "--controller", "kernel", "--course", str(tiny)), "--workers", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "workers must be >= 1" in err and err.count("\n") == 1 and not out.exists()
+    assert main(evaluate_argv(out, "--controller", "kernel", "--course", str(tiny))) == 0
+    capsys.readouterr()
+    tiny.write_text(TINY.replace("[3.0, 0.0]", "[4.0, 0.0]"))  # same name, other course
+    argv = evaluate_argv(out, "--controller", "kernel", "--course", str(tiny), "--seeds", "1")
+    assert main(argv) == 2
+    assert "made by a different course" in capsys.readouterr().err
+    assert len((out / "kernel-base" / "commands.txt").read_text().splitlines()) == 1

@@ -83,14 +83,15 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _courses(names: list[str] | None):
-    from krl.eval.courses import load_course
+    """The courses of ``--course`` options, each once; two different courses of one name are refused."""
+    from krl.eval.courses import distinct_courses, load_course
 
     expanded: list[str] = []
     for name in names or []:
         expanded += (
             list(THESIS_COURSES) if name == "thesis" else list(SHIPPED_COURSES) if name == "all" else [name]
         )
-    return [load_course(name) for name in dict.fromkeys(expanded)]
+    return distinct_courses([load_course(name) for name in dict.fromkeys(expanded)])
 
 
 def push_sweep_from_args(args: argparse.Namespace):
@@ -103,10 +104,10 @@ def push_sweep_from_args(args: argparse.Namespace):
 
 def run_evaluate(args: argparse.Namespace) -> int:
     from krl.eval import evaluate
-    from krl.eval.controllers import parse_controller
+    from krl.eval.controllers import distinct_controllers, parse_controller
     from krl.progress import progress_bar
 
-    specs = [parse_controller(text) for text in args.controller]
+    specs = distinct_controllers([parse_controller(text) for text in args.controller])
     names = args.course if args.course or args.push_sweep else ["thesis"]
     courses = _courses(names)
     seeds = parse_ints(args.seeds, "--seeds")
@@ -119,8 +120,10 @@ def run_evaluate(args: argparse.Namespace) -> int:
         if sweep is not None:
             tasks += evaluate.push_tasks(spec, sweep, video)
     command = "krl " + shlex.join(args.argv)
-    for spec in specs:
-        _remember_command(out / spec.label / "commands.txt", command)
+
+    def remember_command() -> None:  # once every option and stored result has been checked
+        for spec in specs:
+            _remember_command(out / spec.label / "commands.txt", command)
 
     counts = {"ran": 0, "stored": 0}
     with progress_bar(not args.quiet, unit="runs", status=True) as bar:
@@ -133,7 +136,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
             bar.update(task_id, advance=1, status=status + (" fell" if metrics["fell"] else ""))
 
         try:
-            records = evaluate.execute(tasks, out, args.workers, on_done)
+            records = evaluate.execute(tasks, out, args.workers, on_done, remember_command)
         except KeyboardInterrupt:
             done = counts["ran"] + counts["stored"]
             print(

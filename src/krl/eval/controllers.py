@@ -16,16 +16,29 @@ adding one. A :class:`ControllerSpec` is plain data, so worker processes rebuild
 the files it is built from are named with their SHA-256, so stored results are tied to the files'
 content, not their paths. Every controller implements :class:`krl.control.types.Controller`, so one
 runner scores them all.
+
+Labels name results (``OUT/<label>/...``), so two different controllers must never share one. The
+expert's is made of its options; a shipped model's is its name (``kernel-base``, ``agent-rp``, the names
+``krl report`` sets beside the thesis's rows); a user's file's is its name (``kernel:runs/mine.npz`` is
+``kernel-mine``; a file named ``kernel.npz``, what ``krl kernel train`` writes, takes its folder's name),
+and where that name is a shipped model's, the first :data:`LABEL_HASH_DIGITS` hex digits of the file's
+SHA-256 follow (``kernel:X/kernel-base.npz`` is ``kernel-base-3fa2c1``), so a user's file never takes a
+shipped model's results or its row in the report. Two different files that still share a label in one
+call are refused by :func:`distinct_controllers`.
 """
 
 from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
+
+LABEL_HASH_DIGITS: int = 6
+"""Hex digits of a user file's SHA-256 in its label when its name is a shipped model's (16.7 million
+values; two files that share them are refused by :func:`distinct_controllers`, not mixed)."""
 
 
 class ControllerSpecError(ValueError):
@@ -181,8 +194,13 @@ def _parse_kernel(text: str, rest: str) -> ControllerSpec:
         load_kernel(path)
     except KernelFileError as error:
         raise ControllerSpecError(f"controller {text!r}: {error}") from None
-    name = model if model in SHIPPED_MODELS else Path(model).stem.removeprefix("kernel-")
-    return ControllerSpec("kernel", f"kernel-{name}", (), (Artifact.of(path),))
+    artifact = Artifact.of(path)
+    if model in SHIPPED_MODELS:
+        return ControllerSpec("kernel", f"kernel-{model}", (), (artifact,))
+    # `krl kernel train` writes OUT/kernel.npz: its folder names the run
+    name = path.stem if path.stem != "kernel" else path.resolve().parent.name
+    label = _user_label("kernel", name.removeprefix("kernel-"), SHIPPED_MODELS, artifact.sha256)
+    return ControllerSpec("kernel", label, (), (artifact,))
 
 
 def _build_kernel(spec: ControllerSpec, seed: int | None):
@@ -196,14 +214,17 @@ def _build_kernel(spec: ControllerSpec, seed: int | None):
 
 
 def _parse_agent(text: str, rest: str) -> ControllerSpec:
-    from krl.agent.policy import PolicyFileError, policy_artifacts
+    from krl.agent.policy import SHIPPED_POLICIES, PolicyFileError, policy_artifacts
 
     try:
         name, files = policy_artifacts(rest.strip())
     except PolicyFileError as error:
         raise ControllerSpecError(f"controller {text!r}: {error}") from None
     artifacts = tuple(Artifact.of(path, seed) for seed, path in files)
-    return ControllerSpec("agent", f"agent-{name}", (), artifacts)
+    spec = ControllerSpec("agent", f"agent-{name}", (), artifacts)
+    if (rest.strip() or "rp") in SHIPPED_POLICIES:
+        return spec
+    return replace(spec, label=_user_label("agent", name, SHIPPED_POLICIES, spec.content_hash or ""))
 
 
 def _build_agent(spec: ControllerSpec, seed: int | None):
@@ -211,6 +232,31 @@ def _build_agent(spec: ControllerSpec, seed: int | None):
     from krl.agent.policy import load_policy
 
     return AgentController(load_policy(spec.artifact(seed).path))
+
+
+def _user_label(kind: str, name: str, shipped: tuple[str, ...], sha256: str) -> str:
+    """The label of a user's file named ``name`` (module docstring): ``KIND-NAME``, or ``KIND-NAME-HASH``
+    where NAME is one of the ``shipped`` models' names."""
+    return f"{kind}-{name}" + (f"-{sha256[:LABEL_HASH_DIGITS]}" if name in shipped else "")
+
+
+def distinct_controllers(specs: Sequence[ControllerSpec]) -> list[ControllerSpec]:
+    """The specs without repeats (equal specs, e.g. ``kernel`` and ``kernel:base``), in order; two different
+    controllers of one label are a :class:`ControllerSpecError`, since results are stored by label."""
+    kept: dict[str, ControllerSpec] = {}
+    for spec in specs:
+        other = kept.setdefault(spec.label, spec)
+        if other != spec:
+            raise ControllerSpecError(
+                f"two different controllers are labelled {spec.label!r} ({_origin(other)} and "
+                f"{_origin(spec)}); results are stored by label, so give one of them another name"
+            )
+    return list(kept.values())
+
+
+def _origin(spec: ControllerSpec) -> str:
+    """What a controller is made from, for messages: its files, or its options."""
+    return ", ".join(a.path for a in spec.artifacts) or f"options {dict(spec.options)}"
 
 
 CONTROLLER_KINDS: dict[str, ControllerKind] = {

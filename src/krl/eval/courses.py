@@ -12,6 +12,7 @@ import hashlib
 import json
 import math
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib.resources import files
 from pathlib import Path
@@ -25,6 +26,11 @@ SHIPPED_COURSES: tuple[str, ...] = ("flat", "sinusoid", "stairs", "tabletop", "s
 
 THESIS_COURSES: tuple[str, ...] = ("tabletop", "seesaw", "stairs", "sinusoid")
 """The thesis's four evaluation courses, in the order of Tables 5.1-5.4."""
+
+PLANE_EXTENT: float = 100.0
+"""Half side [m] of the square around the origin that a course must lie in on a terrain whose ground is
+an unbounded plane (flat, stairs, table-top, seesaw): as far as the largest height field krl builds reaches
+(``half_size`` <= 100 m). On a height-field terrain the course must lie on the field."""
 
 _KEYS = {"format", "name", "description", "time_limit", "d_min", "waypoints", "starts", "terrain"}
 _TERRAIN_KEYS = {"name", "seed", "params"}
@@ -108,6 +114,20 @@ def load_course(name_or_path: str | Path) -> Course:
     return parse_course(data, str(path))
 
 
+def distinct_courses(courses: Sequence[Course]) -> list[Course]:
+    """The courses without repeats (equal content), in order; two different courses of one name are a
+    :class:`CourseError`, since results are stored by course name (``OUT/<controller>/<course>/``)."""
+    kept: dict[str, Course] = {}
+    for course in courses:
+        other = kept.setdefault(course.name, course)
+        if other.fingerprint != course.fingerprint:
+            raise CourseError(
+                f"two different courses are named {course.name!r} ({other.source} and {course.source}); "
+                "results are stored by course name, so give one another name (its name key)"
+            )
+    return list(kept.values())
+
+
 def parse_course(data: dict[str, Any], source: str = "<course>") -> Course:
     """Validate a course's parsed TOML content and build the :class:`Course`."""
 
@@ -162,14 +182,31 @@ def parse_course(data: dict[str, Any], source: str = "<course>") -> Course:
     from krl.sim.terrains import TerrainError
 
     try:
-        course.build()
+        terrain_built = course.build().terrain
     except TerrainError as error:
         raise fail(f"terrain: {error}") from None
+    (x_low, x_high), (y_low, y_high) = terrain_extent(terrain_built)
+    for key, points in (("waypoints", course.waypoints), ("starts", course.starts)):
+        for index, (x, y, *_) in enumerate(points):
+            if not (x_low <= x <= x_high and y_low <= y <= y_high):
+                raise fail(
+                    f"{key}[{index}] = ({x:g}, {y:g}) m lies outside the {course.terrain} terrain's extent "
+                    f"[{x_low:g}, {x_high:g}] x [{y_low:g}, {y_high:g}] m"
+                )
     first = course.waypoints[0]
     for index, (x, y, _) in enumerate(course.starts):
         if math.hypot(first[0] - x, first[1] - y) < course.d_min:
             raise fail(f"starts[{index}] is within d_min = {course.d_min} m of the first waypoint")
     return course
+
+
+def terrain_extent(terrain) -> tuple[tuple[float, float], tuple[float, float]]:
+    """``((x_min, x_max), (y_min, y_max))`` [m] a course on ``terrain`` (:class:`krl.sim.terrains.Terrain`)
+    must lie in: its height field, or :data:`PLANE_EXTENT` around the origin on a plane."""
+    grid = terrain.grid
+    if grid is not None:
+        return (grid.x0, grid.x1), (grid.y0, grid.y1)
+    return (-PLANE_EXTENT, PLANE_EXTENT), (-PLANE_EXTENT, PLANE_EXTENT)
 
 
 def _positive(value: Any, key: str, fail) -> float:

@@ -147,10 +147,30 @@ def load_record(path: Path, task: Task | None = None) -> dict[str, Any]:
         stored = {key: record.get(key) for key in task.identity()}
         if stored != task.identity():
             raise EvaluationError(
-                f"{path} was made by a different controller, course or sweep than this run; "
+                f"{path} was made by a different {_differences(stored, task.identity())} than this run; "
                 "use another --out or delete the old results"
             )
     return record
+
+
+_IDENTITY_NAMES = {
+    "format": "result format",
+    "controller": "controller",
+    "course": "course",
+    "course_fingerprint": "course",
+    "sweep": "push sweep",
+    "magnitude": "push sweep",
+    "attempt": "push sweep",
+    "start": "start",
+    "seed": "seed",
+}
+"""What each key of :meth:`Task.identity` is, in messages."""
+
+
+def _differences(a: dict[str, Any], b: dict[str, Any]) -> str:
+    """What two runs' identities differ in: ``course``, ``controller and course``, ..."""
+    keys = [key for key in b if a.get(key) != b[key]]
+    return " and ".join(dict.fromkeys(_IDENTITY_NAMES.get(key, key) for key in keys))
 
 
 def execute(
@@ -158,36 +178,52 @@ def execute(
     out: Path,
     workers: int = 1,
     on_done: Callable[[Task, dict[str, Any], bool], None] | None = None,
+    on_start: Callable[[], None] | None = None,
 ) -> list[dict[str, Any]]:
     """Run the tasks whose results are not stored yet; return every task's record, in task order.
 
-    ``on_done(task, record, ran)`` is called for each task as its record becomes available (``ran``:
-    False for a stored result). The runs go through :func:`krl.parallel.run_jobs`: Ctrl-C or SIGTERM
-    stops the workers and raises :class:`krl.parallel.Interrupted` (a ``KeyboardInterrupt``); only the
-    runs in flight are lost, every record passed to ``on_done`` is stored.
+    Everything is checked before anything is written: the worker count; that no two different runs
+    would share a result file (same controller label and run key, different identity: an
+    :class:`EvaluationError`; equal tasks run once); and that every stored result was made by its task.
+    Then ``on_start()`` is called (the CLI records its command there), and ``on_done(task, record, ran)``
+    for each task as its record becomes available (``ran``: False for a stored result). The runs go
+    through :func:`krl.parallel.run_jobs`: Ctrl-C or SIGTERM stops the workers and raises
+    :class:`krl.parallel.Interrupted` (a ``KeyboardInterrupt``); only the runs in flight are lost, every
+    record passed to ``on_done`` is stored.
     """
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
-    records: dict[tuple[str, str], dict[str, Any]] = {}  # by (controller label, run key)
-    pending = []
+    planned: dict[Path, Task] = {}
     for task in tasks:
         path = result_path(out, task)
+        other = planned.setdefault(path, task)
+        if other.identity() != task.identity():
+            raise EvaluationError(
+                f"{path} would hold two different runs of this call (they differ in "
+                f"{_differences(other.identity(), task.identity())}); give them different names"
+            )
+    records: dict[Path, dict[str, Any]] = {}
+    pending = []
+    for path, task in planned.items():
         if path.exists() and not (task.video and not Path(task.video).exists()):
-            record = records[task.controller.label, task.key] = load_record(path, task)
-            if on_done is not None:
-                on_done(task, record, False)
+            records[path] = load_record(path, task)
         else:
             pending.append(task)
+    if on_start is not None:
+        on_start()
+    if on_done is not None:
+        for path, record in records.items():
+            on_done(planned[path], record, False)
 
     def finish(index: int, record: dict[str, Any]) -> None:
-        task = pending[index]
-        write_atomic(result_path(out, task), json.dumps(record, indent=1))
-        records[task.controller.label, task.key] = record
+        path = result_path(out, pending[index])
+        write_atomic(path, json.dumps(record, indent=1))
+        records[path] = record
         if on_done is not None:
-            on_done(task, record, True)
+            on_done(pending[index], record, True)
 
     run_jobs(run_task, pending, workers, on_result=finish)
-    return [records[task.controller.label, task.key] for task in tasks]
+    return [records[result_path(out, task)] for task in tasks]
 
 
 # --- aggregates --------------------------------------------------------------------------------------
