@@ -111,8 +111,13 @@ def test_expert_run_writes_a_video(tmp_path, capsys):
         (["expert", "run", "--stance-duration", "-0.2"], "stance_duration"),
         (["expert", "run", "--step-height", "0.5"], "step_height"),
         (["expert", "run", "--command", "0.3,0"], "--command expects 3"),
+        (["expert", "run", "--targets", "0"], "--targets must be >= 1, got 0"),
+        (["expert", "run", "--targets", "-3"], "--targets must be >= 1, got -3"),
+        (["expert", "run", "--target-time-limit", "-5"], "target_time_limit must be a positive number"),
+        (["expert", "run", "--target-time-limit", "0"], "target_time_limit must be a positive number"),
     ],
 )
 def test_expert_run_bad_options(argv, message, capsys):
     assert main(argv) == 2
-    assert message in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
