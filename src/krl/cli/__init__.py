@@ -13,7 +13,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from krl.cli import agent, data, expert, kernel, sim
+from krl.cli import agent, data, demo, expert, kernel, sim
 from krl.cli import eval as evaluation
 from krl.cli.common import CliError
 
@@ -35,6 +35,7 @@ def build_parser() -> argparse.ArgumentParser:
     data.register(subparsers)
     evaluation.register(subparsers)
     agent.register(subparsers)
+    demo.register(subparsers)
     return parser
 
 

@@ -111,10 +111,12 @@ def score_walk(
     reward: RewardParams = EVALUATION_REWARD,
     push=None,
     video: str | Path | None = None,
+    trace: list[np.ndarray] | None = None,
 ) -> dict[str, Any]:
     """Walk ``controller`` from ``start_pose`` through ``targets`` within ``time_limit`` [s] and score it.
 
-    ``push`` (a :class:`krl.sim.pushes.Push`) is scheduled after the reset; ``video`` records an MP4.
+    ``push`` (a :class:`krl.sim.pushes.Push`) is scheduled after the reset; ``video`` records an MP4;
+    ``trace`` receives the base position (x, y, z) [m] after every control step.
     A diverging simulation or an MPC that gives up ends the run with an ``error`` (counted as a fall by the
     aggregates) instead of stopping the evaluation.
     """
@@ -133,6 +135,8 @@ def score_walk(
         scorer(record, step)
         if recorder is not None:
             recorder.capture()
+        if trace is not None:
+            trace.append(record.after.base_pos.copy())
 
     runner = Runner(sim, controller, replace(CommandParams(), d_min=d_min))
     wall = time.perf_counter()
