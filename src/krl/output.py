@@ -74,6 +74,15 @@ def csv_bytes(columns: Sequence[str], rows: Sequence[dict[str, Any]]) -> bytes:
     return buffer.getvalue().encode()
 
 
+def npz_bytes(arrays: dict[str, Any]) -> bytes:
+    """Arrays as the bytes of an uncompressed ``.npz`` archive (``numpy.savez``), for :func:`write_atomic`."""
+    import numpy as np
+
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    return buffer.getvalue()
+
+
 def figure_bytes(fig) -> bytes:
     """The figure as a PNG with a 256-colour palette (a third of the size of full colour, same look)."""
     from PIL import Image

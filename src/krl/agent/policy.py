@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import zipfile
 from dataclasses import dataclass
 from importlib.resources import files
@@ -25,6 +24,7 @@ import numpy as np
 
 from krl.agent.config import AgentConfig, AgentConfigError
 from krl.agent.observation import layout, observation_size
+from krl.output import npz_bytes, write_atomic
 
 FILE_FORMAT = "krl-policy"
 FILE_VERSION = 1
@@ -99,10 +99,7 @@ class Policy:
             arrays[f"W{index}"] = weight.astype(np.float32)
             arrays[f"b{index}"] = bias.astype(np.float32)
         arrays["header"] = np.array(json.dumps(header, sort_keys=True))
-        temporary = path.with_name(f".{path.name}.tmp")
-        with open(temporary, "wb") as handle:
-            np.savez(handle, **arrays)
-        os.replace(temporary, path)
+        write_atomic(path, npz_bytes(arrays))
         return path
 
 

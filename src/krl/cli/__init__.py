@@ -13,7 +13,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from krl.cli import agent, data, demo, expert, kernel, sim
+from krl.cli import agent, data, demo, expert, export, kernel, sim
 from krl.cli import eval as evaluation
 from krl.cli.common import CliError
 
@@ -36,6 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.register(subparsers)
     agent.register(subparsers)
     demo.register(subparsers)
+    export.register(subparsers)
     return parser
 
 

@@ -11,7 +11,6 @@ is saved as one ``.npz`` file of plain arrays and a JSON metadata string, loaded
 from __future__ import annotations
 
 import json
-import os
 import zipfile
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -20,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from krl.kernel.features import check_variant, input_names, output_size
+from krl.output import npz_bytes, write_atomic
 
 FILE_FORMAT = "krl-kernel"
 FILE_VERSION = 1
@@ -53,7 +53,8 @@ class NetworkConfig:
         object.__setattr__(self, "hidden", tuple(int(h) for h in self.hidden))
 
 
-_BN_EPS = 1e-5
+BN_EPS: float = 1e-5
+"""Batch normalisation's variance epsilon (PyTorch's default), used at inference."""
 
 
 @dataclass
@@ -85,13 +86,13 @@ class Kernel:
         if x.shape[-1] != self.input_size:
             raise ValueError(f"kernel-{self.variant} expects {self.input_size} inputs, got shape {x.shape}")
         x = (x - self.input_mean) / self.input_std
-        layers = self._layers()
+        layers = self.layers()
         for index, layer in enumerate(layers):
             x = x @ layer["W"].T + layer["b"]
             if index == len(layers) - 1:
                 break
             if self.network.batch_norm:
-                x = (x - layer["mean"]) / np.sqrt(layer["var"] + _BN_EPS) * layer["gamma"] + layer["beta"]
+                x = (x - layer["mean"]) / np.sqrt(layer["var"] + BN_EPS) * layer["gamma"] + layer["beta"]
             x = np.maximum(x, 0.0) if self.network.activation == "relu" else np.tanh(x)
         return x * self.output_std + self.output_mean
 
@@ -105,7 +106,9 @@ class Kernel:
     def _per_hidden(self) -> int:
         return 6 if self.network.batch_norm else 2
 
-    def _layers(self) -> list[dict[str, np.ndarray]]:
+    def layers(self) -> list[dict[str, np.ndarray]]:
+        """Per linear layer, its arrays by name: ``W`` (out, in), ``b`` (out,), and for hidden layers with
+        batch norm ``gamma``, ``beta``, ``mean``, ``var`` (out,)."""
         per_hidden = self._per_hidden
         layers, i = [], 0
         for _ in self.network.hidden:
@@ -135,10 +138,7 @@ class Kernel:
             output_std=self.output_std,
             header=np.array(json.dumps(header, sort_keys=True)),
         )
-        temporary = path.with_name(f".{path.name}.tmp")
-        with open(temporary, "wb") as handle:
-            np.savez(handle, **arrays)
-        os.replace(temporary, path)
+        write_atomic(path, npz_bytes(arrays))
         return path
 
 
@@ -197,7 +197,7 @@ def _check_shapes(kernel: Kernel, path: Path) -> None:
             f"has {kernel.weight_count}"
         )
     width = kernel.input_size
-    for number, layer in enumerate(kernel._layers(), start=1):
+    for number, layer in enumerate(kernel.layers(), start=1):
         matrix = layer["W"]
         if matrix.ndim != 2:
             raise KernelFileError(

@@ -1,0 +1,205 @@
+"""``krl export``: the kernel and the agent's policy as ONNX graphs, with a JSON contract beside them.
+
+The graphs are built from the same NumPy arrays krl's own inference uses (``Kernel.predict``,
+``Policy.act``), normalisation included, so a robot or another simulator can run them without krl:
+
+* ``kernel.onnx``: ``features`` (N, n_in) float32 -> ``foot_targets`` (N, 12), the four feet's targets in the
+  base frame [m], leg-major (FR, FL, RR, RL) × (x, y, z); kernel-ind maps (4N, 8) -> (4N, 3).
+* ``policy.onnx``: ``observation`` (N, D) float32 -> ``action`` (N, 12) in [-1, 1] (the deterministic
+  action: the Gaussian's mean, clipped).
+* ``contract.json``: the observation's terms in order with slices and units, the kernel's input names, the
+  action's meaning and bounds, the residual bound [m], the filter's α, the control and physics steps, the
+  foot and joint order, and the SHA-256 of the kernel and policy files.
+
+``onnx`` and ``onnxruntime`` are an optional extra (``pip install -e ".[export]"``).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from krl.output import write_atomic
+
+OPSET = 17
+"""ONNX opset of the exported graphs."""
+
+
+def _onnx():
+    try:
+        import onnx
+    except ImportError:
+        raise ImportError('krl export needs the onnx package: pip install -e ".[export]"') from None
+    return onnx
+
+
+class _Graph:
+    """A small builder of a feed-forward ONNX graph over one input."""
+
+    def __init__(self, input_name: str) -> None:
+        self.onnx = _onnx()
+        self.nodes: list[Any] = []
+        self.constants: list[Any] = []
+        self.last = input_name
+        self.count = 0
+
+    def _name(self, kind: str) -> str:
+        self.count += 1
+        return f"{kind}_{self.count}"
+
+    def constant(self, array: np.ndarray) -> str:
+        name = self._name("c")
+        self.constants.append(self.onnx.numpy_helper.from_array(np.asarray(array, dtype=np.float32), name))
+        return name
+
+    def op(self, kind: str, *extra: str, **attributes: Any) -> str:
+        out = self._name(kind.lower())
+        self.nodes.append(self.onnx.helper.make_node(kind, [self.last, *extra], [out], **attributes))
+        self.last = out
+        return out
+
+    def linear(self, weight: np.ndarray, bias: np.ndarray) -> None:
+        self.op("MatMul", self.constant(np.asarray(weight).T))
+        self.op("Add", self.constant(bias))
+
+    def affine(self, scale: np.ndarray, shift: np.ndarray) -> None:
+        self.op("Mul", self.constant(scale))
+        self.op("Add", self.constant(shift))
+
+    def clip(self, low: float, high: float) -> None:
+        self.op("Clip", self.constant(np.array(low)), self.constant(np.array(high)))
+
+    def model(self, input_name: str, width_in: int, output_name: str, width_out: int, doc: str):
+        helper = self.onnx.helper
+        self.nodes.append(helper.make_node("Identity", [self.last], [output_name]))
+        graph = helper.make_graph(
+            self.nodes,
+            "krl",
+            [helper.make_tensor_value_info(input_name, self.onnx.TensorProto.FLOAT, ["N", width_in])],
+            [helper.make_tensor_value_info(output_name, self.onnx.TensorProto.FLOAT, ["N", width_out])],
+            initializer=self.constants,
+        )
+        model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)], producer_name="krl")
+        model.doc_string = doc
+        self.onnx.checker.check_model(model)
+        return model
+
+
+def kernel_onnx(kernel):
+    """The kernel (normalisers, MLP, batch norm folded) as an ONNX model."""
+    from krl.kernel.model import BN_EPS
+
+    graph = _Graph("features")
+    graph.affine(1.0 / kernel.input_std, -kernel.input_mean / kernel.input_std)
+    layers = kernel.layers()
+    for index, layer in enumerate(layers):
+        graph.linear(layer["W"], layer["b"])
+        if index == len(layers) - 1:
+            break
+        if kernel.network.batch_norm:
+            scale = layer["gamma"] / np.sqrt(layer["var"] + BN_EPS)
+            graph.affine(scale, layer["beta"] - layer["mean"] * scale)
+        graph.op("Relu" if kernel.network.activation == "relu" else "Tanh")
+    graph.affine(kernel.output_std, kernel.output_mean)
+    return graph.model(
+        "features", kernel.input_size, "foot_targets", kernel.output_size, f"krl kernel-{kernel.variant}"
+    )
+
+
+def policy_onnx(policy):
+    """The policy (observation normaliser, tanh MLP, action clip) as an ONNX model."""
+    graph = _Graph("observation")
+    scale = 1.0 / np.sqrt(policy.obs_var + policy.obs_epsilon)
+    graph.affine(scale, -policy.obs_mean * scale)
+    graph.clip(-policy.obs_clip, policy.obs_clip)
+    for index, (weight, bias) in enumerate(policy.layers):
+        graph.linear(weight, bias)
+        if index < len(policy.layers) - 1:
+            graph.op("Tanh")
+    graph.clip(-1.0, 1.0)
+    return graph.model("observation", policy.observation_size, "action", 12, "krl residual policy")
+
+
+def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = None) -> dict[str, Any]:
+    """What the exported graphs mean (module docstring)."""
+    from krl.agent.observation import layout
+    from krl.agent.policy import file_sha256
+    from krl.kernel.features import input_names
+    from krl.robots.a1.constants import JOINT_NAMES, LEG_NAMES
+    from krl.timing import COMMAND_DT, CONTROL_DT, PHYSICS_DT
+
+    document: dict[str, Any] = {
+        "format": "krl-export",
+        "version": 1,
+        "control_dt": CONTROL_DT,
+        "physics_dt": PHYSICS_DT,
+        "command_dt": COMMAND_DT,
+        "foot_order": list(LEG_NAMES),
+        "joint_order": list(JOINT_NAMES),
+        "kernel": {
+            "file": "kernel.onnx",
+            "variant": kernel.variant,
+            "sha256": file_sha256(kernel_path),
+            "inputs": input_names(kernel.variant),
+            "outputs": "foot targets in the base frame [m], leg-major (foot_order) x (x, y, z)",
+        },
+    }
+    if policy is not None:
+        residual = policy.config.residual
+        document["policy"] = {
+            "file": "policy.onnx",
+            "sha256": file_sha256(policy_path),
+            "observation": [
+                {"name": r["name"], "start": r["start"], "stop": r["stop"], "unit": r["unit"]}
+                for r in layout(policy.config.observation.features)
+            ],
+            "action": {
+                "size": 12,
+                "bounds": [-1.0, 1.0],
+                "meaning": "per foot (foot_order) an (x, y, z) base-frame residual, times residual_bound",
+                "residual_bound_m": list(residual.residual_bound),
+                "filter": "r_t = alpha * action_t * residual_bound + (1 - alpha) * r_(t-1), r_(-1) = 0",
+                "filter_alpha": residual.alpha,
+                "then": "joint targets = IK(kernel foot targets + r_t), PD at 1/physics_dt (Table 4.2 gains)",
+            },
+            "kernel_sha256": policy.metadata.get("kernel_sha256"),
+        }
+    return document
+
+
+def export(out: str | Path, policy: str | None = None, kernel: str | None = None) -> dict[str, Any]:
+    """Write the ONNX files and the contract into ``out``. ``policy``: a shipped agent's name or a policy
+    file (its kernel is exported with it); ``kernel``: a shipped kernel's name or a kernel file (when no
+    policy is given; default ``base``)."""
+    from krl.agent.policy import check_kernel_file, load_policy, policy_artifacts
+    from krl.kernel.model import load_kernel
+    from krl.kernel.registry import resolve_model
+
+    out = Path(out)
+    loaded_policy, policy_path = None, None
+    if policy is not None:
+        _, files = policy_artifacts(policy)
+        if len(files) > 1:
+            raise ValueError(f"{policy} holds one policy per seed: export one file")
+        policy_path = files[0][1]
+        loaded_policy = load_policy(policy_path, kernel)
+        kernel_path = check_kernel_file(loaded_policy, kernel, policy_path)
+    else:
+        kernel_path = resolve_model(kernel or "base")
+    loaded_kernel = load_kernel(kernel_path)
+    written = {}
+    path = out / "kernel.onnx"
+    write_atomic(path, kernel_onnx(loaded_kernel).SerializeToString())
+    written["kernel"] = str(path)
+    if loaded_policy is not None:
+        path = out / "policy.onnx"
+        write_atomic(path, policy_onnx(loaded_policy).SerializeToString())
+        written["policy"] = str(path)
+    path = out / "contract.json"
+    document = contract(loaded_kernel, kernel_path, loaded_policy, policy_path)
+    write_atomic(path, json.dumps(document, indent=2) + "\n")
+    written["contract"] = str(path)
+    return written

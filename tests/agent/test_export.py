@@ -1,0 +1,62 @@
+"""``krl export``: onnxruntime runs the exported kernel and policy as krl's NumPy inference does."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import onnxruntime
+
+sys.path.insert(0, str(Path(__file__).parent / "agent"))
+from agent_fakes import make_policy
+
+from krl.agent.config import AgentConfig
+from krl.cli import main
+from krl.kernel.registry import load_model
+
+
+def _run(path: Path, name: str, x: np.ndarray) -> np.ndarray:
+    session = onnxruntime.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    return session.run(None, {name: x.astype(np.float32)})[0]
+
+
+def test_exported_kernel_and_policy_match_numpy_inference(tmp_path, capsys):
+    policy = make_policy(AgentConfig(), scale=0.3, seed=1)
+    rng = np.random.default_rng(0)
+    policy.obs_mean = rng.standard_normal(policy.observation_size)
+    policy.obs_var = rng.uniform(0.5, 2.0, policy.observation_size)
+    path = policy.save(tmp_path / "agent-x.npz")
+    assert main(["export", "--out", str(tmp_path / "onnx"), "--policy", str(path), "--json"]) == 0
+    files = json.loads(capsys.readouterr().out)
+    kernel = load_model("base")
+    features = np.column_stack((rng.uniform(-0.5, 0.5, (64, 3)), rng.uniform(0, 2, (64, 4))))
+    np.testing.assert_allclose(
+        _run(files["kernel"], "features", features), kernel.predict(features), atol=1e-5, rtol=1e-5
+    )
+    observation = rng.standard_normal((64, policy.observation_size)) * 3
+    np.testing.assert_allclose(
+        _run(files["policy"], "observation", observation), policy.act(observation), atol=1e-5
+    )
+    contract = json.loads(Path(files["contract"]).read_text())
+    assert contract["policy"]["observation"][0] == {
+        "name": "base_lin_vel",
+        "start": 0,
+        "stop": 3,
+        "unit": "m/s",
+    }
+    assert contract["policy"]["action"]["filter_alpha"] == 0.1
+    assert contract["kernel"]["sha256"] == contract["policy"]["kernel_sha256"]
+    assert contract["joint_order"][:3] == ["FR_abduction", "FR_hip", "FR_knee"]
+
+
+def test_the_ext_kernel_alone(tmp_path, capsys):
+    assert main(["export", "--out", str(tmp_path), "--kernel", "ext", "--json"]) == 0
+    files = json.loads(capsys.readouterr().out)
+    kernel = load_model("ext")
+    features = np.random.default_rng(1).uniform(0, 0.3, (16, kernel.input_size))
+    np.testing.assert_allclose(
+        _run(files["kernel"], "features", features), kernel.predict(features), atol=1e-5, rtol=1e-5
+    )
+    assert "policy" not in files
