@@ -403,16 +403,16 @@ def _resume(checkpoint_path: Path, this_run: str, net, optimizer, scheduler, gen
 
     Raises ValueError with one line naming the file when it is not a checkpoint of this run (torch's own
     messages run over several lines and suggest loading with ``weights_only=False``, which would run
-    pickled code, so only the error's type is kept).
+    pickled code, so they are not passed on).
     """
     import torch
 
     try:
         checkpoint = torch.load(checkpoint_path, weights_only=True)
-    except Exception as error:  # torch raises several types for damaged files
+    except Exception:  # torch raises several types for damaged files, none of them telling more
         raise ValueError(
-            f"checkpoint {checkpoint_path} is corrupt or not a krl training checkpoint "
-            f"({type(error).__name__}); delete it to start over"
+            f"checkpoint {checkpoint_path} is corrupt or not a krl training checkpoint (torch cannot load "
+            "it); delete it to start over"
         ) from None
     if not isinstance(checkpoint, dict):
         raise ValueError(
