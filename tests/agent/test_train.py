@@ -113,3 +113,32 @@ def test_kill_9_of_training_leaves_no_worker_and_resumes_from_the_checkpoint(tmp
     summary = train(out, total_steps=kept + 256, progress=False, log=messages.append)
     assert messages[0].startswith(f"resuming {out} from {kept:011d}")
     assert summary["env_steps"] == kept + 256
+
+
+def test_sigterm_saves_a_checkpoint_and_stops_the_workers(tmp_path, small_config):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "run"
+    (tmp_path / "config.json").write_text(json.dumps(replace(small_config, total_steps=1_000_000).to_json()))
+    command = [sys.executable, "-m", "krl.cli", "agent", "train", "--out", str(out), "--quiet"]
+    command += ["--config", str(tmp_path / "config.json")]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not (out / "checkpoints" / "latest").is_file():
+        assert time.monotonic() < deadline and process.poll() is None, "no checkpoint was written"
+        time.sleep(0.2)
+    time.sleep(1.0)
+    workers = _children(process.pid)
+    process.send_signal(signal.SIGTERM)
+    printed, error = process.communicate(timeout=60)
+    assert process.returncode == 130, error
+    assert "interrupted: saved" in printed and error == "krl: interrupted\n"
+    deadline = time.monotonic() + 5
+    while any(_alive(pid) for pid in workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(_alive(pid) for pid in workers)
+    kept = int((out / "checkpoints" / "latest").read_text())
+    assert load_policy(out / "policy.npz").metadata["training"]["env_steps"] == kept

@@ -185,7 +185,7 @@ class ResidualEnvBatch:
         terms = reward_terms(self.reward, commands, states, distance, reached, terminated)
         rewards = np.sum(list(terms.values()), axis=0)
         self.last_terms = terms
-        self._prepare(states, np.arange(self.num_envs))
+        self._prepare(states, np.arange(self.num_envs))  # the tasks move on past waypoints reached now
         truncated = np.array([task.status is not TaskStatus.WALKING for task in self.tasks]) & ~terminated
         observations = self._observe(np.arange(self.num_envs))
         self.episode_reward += rewards
@@ -197,7 +197,7 @@ class ResidualEnvBatch:
                 "r": float(self.episode_reward[index]),
                 "l": int(self.episode_steps[index]),
                 "t": round(time.perf_counter() - self.episode_start[index], 6),
-                "targets_reached": int(self.tasks[index].reached_count + reached[index]),
+                "targets_reached": int(self.tasks[index].reached_count),
                 "fell": bool(terminated[index]),
                 "unstable": bool(sims.unstable[index]),
                 "terrain": self.terrain_names[index],

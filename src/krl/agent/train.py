@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +31,10 @@ from krl.output import write_atomic
 
 class TrainingError(RuntimeError):
     """A run folder that cannot be used (another config, a corrupt checkpoint); one line."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
 class LearningRate:
@@ -215,13 +220,21 @@ def train(
             log(f"resuming {out} from {checkpoint.name} ({done_steps} env steps)")
         model.set_logger(configure(str(out), ["csv", "tensorboard"]))
         callback = TrainingCallback(out, config, run, wall_before, _software())
-        with threadpool_limits(1, user_api="blas"):
-            model.learn(
-                total - done_steps,
-                callback=callback,
-                reset_num_timesteps=checkpoint is None,
-                progress_bar=progress,
-            )
+        previous = signal.signal(signal.SIGTERM, _terminate)
+        try:
+            with threadpool_limits(1, user_api="blas"):
+                model.learn(
+                    total - done_steps,
+                    callback=callback,
+                    reset_num_timesteps=checkpoint is None,
+                    progress_bar=progress,
+                )
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM: keep what was learnt, then stop
+            path = callback.save_checkpoint(model)
+            log(f"interrupted: saved {path.name} ({model.num_timesteps} env steps); run again to resume")
+            raise
+        finally:
+            signal.signal(signal.SIGTERM, previous)
         callback.save_checkpoint(model, final=True)
         return {
             "out": str(out),
