@@ -97,6 +97,13 @@ def make_demo(
     if not 0 <= start < len(loaded.starts):
         raise ValueError(f"course {loaded.name} has starts 0-{len(loaded.starts) - 1}, not {start}")
     specs, notes = available_controllers(controllers)
+    if video:
+        from krl.sim.render import rendering_problem
+
+        problem = rendering_problem()
+        if problem is not None:
+            video = False
+            notes.append(f"no video: {problem}")
     out.mkdir(parents=True, exist_ok=True)
     film = str(out / f"{specs[0].label}-{loaded.name}.mp4") if video else None
     runs = [DemoRun(spec, loaded, start, film if index == 0 else None) for index, spec in enumerate(specs)]

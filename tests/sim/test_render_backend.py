@@ -38,3 +38,20 @@ def test_import_krl_and_krl_help_work_without_any_gl_library():
     result = subprocess.run([sys.executable, "-c", code], env=environment, capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     assert "heightfield" in result.stdout
+
+
+def test_without_the_library_rendering_says_what_to_install():
+    environment = {
+        k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM", "DISPLAY")
+    }
+    code = (
+        "import ctypes.util; ctypes.util.find_library = lambda name: None\n"
+        "import sys; from krl.cli import main\n"
+        "sys.exit(main(['render', '--terrain', 'flat', '--out', 'x.png']))\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], env=environment, capture_output=True, text=True)
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines()[-1] == (
+        "krl: error: offscreen rendering needs the OSMesa library (libOSMesa not found): "
+        "apt-get install libosmesa6 (with sudo when not root)"
+    )

@@ -124,6 +124,18 @@ class FrameRenderer:
         self.close()
 
 
+def rendering_problem() -> str | None:
+    """Why offscreen rendering cannot start here (one line), or None when it can (tried on a tiny model)."""
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_string("<mujoco><worldbody><body name='trunk'/></worldbody></mujoco>")
+    try:
+        FrameRenderer(model, 16, 16).close()
+    except RenderError as error:
+        return str(error)
+    return None
+
+
 def write_png(image: np.ndarray, path: str | Path) -> Path:
     """Write an RGB image atomically (temporary file, then rename). Returns the path."""
     from PIL import Image
