@@ -13,7 +13,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from krl.cli import agent, data, demo, expert, export, kernel, sim
+from krl.cli import agent, data, demo, expert, export, kernel, reproduce, sim
 from krl.cli import eval as evaluation
 from krl.cli.common import CliError
 
@@ -37,6 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     agent.register(subparsers)
     demo.register(subparsers)
     export.register(subparsers)
+    reproduce.register(subparsers)
     return parser
 
 

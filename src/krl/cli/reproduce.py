@@ -1,0 +1,26 @@
+"""``krl reproduce``: every table and figure of docs/ from nothing, resumable (``docs/reproduce.md``)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def run_reproduce(args: argparse.Namespace) -> int:
+    from krl.cli import main
+    from krl.reproduce import reproduce
+
+    return reproduce(Path(args.runs), Path(args.docs), args.quick, main, dry_run=args.dry_run)
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "reproduce", help="regenerate every table and figure of docs/ from nothing (resumable; --quick)"
+    )
+    p.add_argument("--runs", default="runs/reproduce", help="where data, kernels, agents and results go")
+    p.add_argument(
+        "--docs", default="docs", help="where the tables and figures go (with --quick: RUNS/quick/docs)"
+    )
+    p.add_argument("--quick", action="store_true", help="a cut-down pipeline (well under an hour here)")
+    p.add_argument("--dry-run", action="store_true", help="print the plan and what is done, run nothing")
+    p.set_defaults(func=run_reproduce)

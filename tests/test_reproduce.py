@@ -1,0 +1,46 @@
+"""``krl reproduce``: every planned command parses; done steps are skipped; a failure stops and resumes."""
+
+from __future__ import annotations
+
+import pytest
+
+from krl.cli import build_parser, main
+from krl.reproduce import plan, reproduce
+
+
+@pytest.mark.parametrize("quick", [False, True])
+def test_every_planned_command_is_a_valid_krl_command(tmp_path, quick):
+    parser = build_parser()
+    steps = plan(tmp_path / "runs", tmp_path / "docs", quick)
+    assert len({step.name for step in steps}) == len(steps)
+    for step in steps:
+        parser.parse_args(list(step.argv))  # exits (SystemExit) on an unknown option
+    if quick:
+        assert all(str(tmp_path / "docs") not in step.command for step in steps)
+        assert sum(step.minutes for step in steps) < 60
+
+
+def test_done_steps_are_skipped_and_a_failure_resumes_there(tmp_path):
+    runs, docs = tmp_path / "runs", tmp_path / "docs"
+    calls: list[list[str]] = []
+    steps = plan(runs, docs, quick=True)
+
+    def failing_at_third(argv: list[str]) -> int:
+        calls.append(argv)
+        return 3 if len(calls) == 3 else 0
+
+    assert reproduce(runs, docs, True, failing_at_third, log=lambda _: None) == 3
+    assert calls == [list(step.argv) for step in steps[:3]]
+    calls.clear()
+    lines: list[str] = []
+    assert reproduce(runs, docs, True, lambda argv: calls.append(argv) or 0, log=lines.append) == 0
+    assert calls[0] == list(steps[2].argv) and len(calls) == len(steps) - 2
+    assert (runs / "quick" / "agent-rp.json").is_file()
+    assert lines[-1] == "everything is reproduced"
+
+
+def test_dry_run_prints_the_plan(tmp_path, capsys):
+    assert main(["reproduce", "--quick", "--dry-run", "--runs", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    assert "collect-base" in printed and "left: about" in printed
+    assert not (tmp_path / "quick").exists()
