@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import time
 
 from krl.cli.common import CliError, add_terrain_arguments, build_sim, default_of, emit, given
 
@@ -62,21 +61,36 @@ def cmd_view(args: argparse.Namespace) -> int:
     if not has_display():
         raise CliError(
             "`krl view` needs a display (DISPLAY/WAYLAND_DISPLAY is unset); on a headless machine use "
-            "`krl render --terrain NAME --out FILE.png`"
+            "`krl render --terrain NAME --out FILE.png`, or `krl demo` / `--video` for a walking robot"
         )
-    import mujoco.viewer
+    from krl.eval.controllers import parse_controller
+    from krl.sim.robot import A1Sim
+    from krl.viewer import LiveSession, run_viewer
 
-    from krl.robots.a1.constants import STANDING_JOINT_ANGLES
-    from krl.timing import CONTROL_DT
+    controller = parse_controller(args.controller).build() if args.controller else _Standing()
+    if args.course:
+        from krl.eval.courses import load_course
 
-    sim = build_sim(args)
-    with mujoco.viewer.launch_passive(sim.model, sim.data) as viewer:
-        while viewer.is_running():
-            start = time.perf_counter()
-            sim.step(STANDING_JOINT_ANGLES)
-            viewer.sync()
-            time.sleep(max(0.0, CONTROL_DT - (time.perf_counter() - start)))
+        course = load_course(args.course)
+        sim = A1Sim(course.build(markers=True))
+        session = LiveSession(sim, controller, course.waypoints, course.starts[0], course.d_min)
+    else:
+        session = LiveSession(build_sim(args), controller)
+    run_viewer(session)
     return 0
+
+
+class _Standing:
+    """The controller of ``krl view`` without ``--controller``: hold the standing pose."""
+
+    def reset(self, state) -> None:
+        pass
+
+    def act(self, state, command):
+        from krl.control.types import JointCommand
+        from krl.robots.a1.constants import STANDING_JOINT_ANGLES
+
+        return JointCommand(STANDING_JOINT_ANGLES)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -118,7 +132,11 @@ def register(subparsers) -> None:
     p.add_argument("--elevation", type=float, help="camera elevation [deg] (default -25; -35 for a course)")
     p.set_defaults(func=cmd_render)
 
-    p = subparsers.add_parser("view", help="open MuJoCo's interactive viewer on a terrain (needs a display)")
+    p = subparsers.add_parser(
+        "view", help="a controller walking live in MuJoCo's viewer, keyboard-steered (needs a display)"
+    )
+    p.add_argument("--controller", help="expert, kernel, agent, ... as in krl evaluate (default: stand)")
+    p.add_argument("--course", help="a course (name or file): its waypoints steer, from its first start")
     add_terrain_arguments(p)
     p.set_defaults(func=cmd_view)
 
