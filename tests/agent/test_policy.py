@@ -93,3 +93,9 @@ def test_per_seed_folders(tmp_path):
     with pytest.raises(PolicyFileError, match="share seed 150"):
         policy_artifacts(str(folder))
     assert zipfile.is_zipfile(folder / "again.npz")
+
+
+def test_a_runs_policy_npz_takes_its_folders_name(tmp_path):
+    path = make_policy(AgentConfig()).save(tmp_path / "agent-mine-seed7" / "policy.npz")
+    name, files = policy_artifacts(str(path))
+    assert name == "mine-seed7" and files == [(None, path)]

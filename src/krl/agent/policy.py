@@ -214,7 +214,9 @@ def policy_artifacts(text: str) -> tuple[str, list[tuple[int | None, Path]]]:
             raise PolicyFileError(f"krl ships no agent-{name} policy yet (train one with `krl agent train`)")
     else:
         path = Path(name)
-        name = path.stem.removeprefix("agent-") if path.is_file() else path.name.removeprefix("agent-")
+        # a run folder's policy.npz takes the folder's name, as a kernel.npz does
+        named = path.parent if path.name == "policy.npz" else path
+        name = (named.stem if named.is_file() else named.name).removeprefix("agent-")
     if path.is_file():
         load_policy(path)
         return name, [(None, path)]
