@@ -21,6 +21,9 @@ def test_tiny_run_writes_policy_and_resumes_from_its_checkpoint(tmp_path, small_
     policy = load_policy(out / "policy.npz")
     assert policy.metadata["training"]["env_steps"] == 256
     assert policy.metadata["training"]["seed"] == 3
+    run = json.loads((out / "run.json").read_text())
+    run["kernel_path"] = str(tmp_path / "elsewhere" / "kernel.npz")  # the folder moved to another machine
+    (out / "run.json").write_text(json.dumps(run))
     messages: list[str] = []
     summary = train(out, total_steps=512, progress=False, log=messages.append)
     assert summary["env_steps"] == 512

@@ -130,6 +130,20 @@ def _open_run(out: Path, config: AgentConfig | None, seed: int | None) -> tuple[
     return config, run
 
 
+def _run_kernel(out: Path, config: AgentConfig, run: dict[str, Any]) -> str:
+    """The run's kernel file: the one it recorded, or (a run folder moved to another machine) the one its
+    config names, provided it has the recorded SHA-256."""
+    from krl.kernel.registry import resolve_model
+
+    for candidate in (Path(run["kernel_path"]), resolve_model(config.residual.kernel)):
+        if candidate.is_file() and file_sha256(candidate) == run["kernel_sha256"]:
+            return str(candidate)
+    raise TrainingError(
+        f"run {out} was trained with the kernel of SHA-256 {run['kernel_sha256'][:12]}…, which is neither "
+        f"{run['kernel_path']} nor {config.residual.kernel!r} here"
+    )
+
+
 def train(
     out: str | Path,
     config: AgentConfig | None = None,
@@ -177,7 +191,8 @@ def train(
     os.environ["OPENBLAS_NUM_THREADS"] = "1"  # inherited by the spawned workers
     torch.set_num_threads(1)  # small networks: extra intra-op threads only spin against the env workers
     env_seed = seed if checkpoint is None else seed + 7919 * (done_steps // config.checkpoint_every + 1)
-    venv = ProcessVecEnv(config, config.workers, config.num_envs, env_seed, run["kernel_path"])
+    kernel_path = _run_kernel(out, config, run)
+    venv = ProcessVecEnv(config, config.workers, config.num_envs, env_seed, kernel_path)
     num_envs = venv.num_envs
     try:
         ppo = config.ppo

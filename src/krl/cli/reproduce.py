@@ -3,14 +3,20 @@
 from __future__ import annotations
 
 import argparse
+import subprocess
+import sys
 from pathlib import Path
 
 
+def run_step(argv: list[str]) -> int:
+    """Run one step as its own ``krl`` process (a fresh interpreter per step, its own progress bars)."""
+    return subprocess.call([sys.executable, "-m", "krl.cli", *argv])
+
+
 def run_reproduce(args: argparse.Namespace) -> int:
-    from krl.cli import main
     from krl.reproduce import reproduce
 
-    return reproduce(Path(args.runs), Path(args.docs), args.quick, main, dry_run=args.dry_run)
+    return reproduce(Path(args.runs), Path(args.docs), args.quick, run_step, dry_run=args.dry_run)
 
 
 def register(subparsers) -> None:
