@@ -145,3 +145,16 @@ def test_sigterm_saves_a_checkpoint_and_stops_the_workers(tmp_path, small_config
     assert not any(_alive(pid) for pid in workers)
     kept = int((out / "checkpoints" / "latest").read_text())
     assert load_policy(out / "policy.npz").metadata["training"]["env_steps"] == kept
+
+
+def test_same_seed_same_policy(tmp_path, small_config):
+    import numpy as np
+
+    policies = []
+    for name in ("a", "b"):
+        train(tmp_path / name, small_config, seed=9, total_steps=256, progress=False, log=lambda _: None)
+        policies.append(load_policy(tmp_path / name / "policy.npz"))
+    for (w1, b1), (w2, b2) in zip(policies[0].layers, policies[1].layers, strict=True):
+        np.testing.assert_array_equal(w1, w2)
+        np.testing.assert_array_equal(b1, b2)
+    np.testing.assert_array_equal(policies[0].obs_mean, policies[1].obs_mean)
