@@ -282,10 +282,12 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
         f"    {command}\n",
         "from the results of:\n",
     ]
+    commands: dict[str, None] = {}  # one line per command, though several controllers ran in it
     for label in found:
         commands_file = results / label / "commands.txt"
         if commands_file.exists():
-            parts += [f"    {line}" for line in commands_file.read_text().splitlines()]
+            commands.update(dict.fromkeys(commands_file.read_text().splitlines()))
+    parts += [f"    {line}" for line in commands]
     parts.append("")
     parts.append(
         "Reward/step: the final reward (Table 4.8 plus the roll/pitch term, `krl.reward`) summed over the "
