@@ -28,6 +28,11 @@ def test_tiny_run_writes_policy_and_resumes_from_its_checkpoint(tmp_path, small_
     summary = train(out, total_steps=512, progress=False, log=messages.append)
     assert summary["env_steps"] == 512
     assert messages == [f"resuming {out} from 00000000256 (256 env steps)"]
+    from krl.agent.curves import read_progress
+
+    kept = (out / "progress.00000000256.csv").read_text()  # the log before the resumption is kept
+    assert "time/total_timesteps" in kept and "256" in kept
+    read_progress(out)
     assert load_policy(out / "policy.npz").metadata["training"]["env_steps"] == 512
     messages.clear()
     train(out, total_steps=512, progress=False, log=messages.append)

@@ -20,17 +20,19 @@ PANELS: tuple[tuple[str, str], ...] = (
 
 
 def read_progress(run: Path) -> dict[str, list[float]]:
-    """The columns of a run's ``progress.csv`` that the panels need, as floats (rows missing one skipped)."""
+    """The columns of a run's training log that the panels need, as floats, in step order: the segments
+    left by resumptions (``progress.<steps>.csv``) and then ``progress.csv`` (rows missing one skipped)."""
     path = run / "progress.csv"
     if not path.is_file():
         raise FileNotFoundError(f"no training log {path} (is {run} a krl agent train folder?)")
     columns: dict[str, list[float]] = {"time/total_timesteps": []}
     columns.update({name: [] for name, _ in PANELS})
-    with open(path, newline="") as handle:
-        for row in csv.DictReader(handle):
-            if all(row.get(name) not in (None, "") for name in columns):
-                for name in columns:
-                    columns[name].append(float(row[name]))
+    for segment in [*sorted(run.glob("progress.*.csv")), path]:
+        with open(segment, newline="") as handle:
+            for row in csv.DictReader(handle):
+                if all(row.get(name) not in (None, "") for name in columns):
+                    for name in columns:
+                        columns[name].append(float(row[name]))
     return columns
 
 

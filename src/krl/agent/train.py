@@ -9,6 +9,7 @@
 | ``checkpoints/<steps>/`` | SB3 model, observation normaliser, ``state.json``; ``latest`` names the newest |
 | ``policy.npz`` | the exported policy (:mod:`krl.agent.policy`), refreshed at every checkpoint |
 | ``progress.csv``, ``events.*`` | the training log, CSV and TensorBoard (:mod:`krl.agent.callbacks`) |
+| ``progress.<steps>.csv`` | the CSV log before a resumption at ``<steps>`` (SB3 starts its CSV afresh) |
 
 Calling it again on the same folder resumes from the newest checkpoint (an interruption loses at most
 ``checkpoint_every`` env steps). The environments restart from fresh episodes on resumption, seeded from
@@ -233,6 +234,9 @@ def train(
                 raise TrainingError(f"checkpoint {checkpoint} is corrupt: {first}") from None
             model.num_timesteps = done_steps
             log(f"resuming {out} from {checkpoint.name} ({done_steps} env steps)")
+        log_path = out / "progress.csv"
+        if checkpoint is not None and log_path.is_file():  # SB3's CSV logger starts its file afresh
+            os.replace(log_path, out / f"progress.{done_steps:011d}.csv")
         model.set_logger(configure(str(out), ["csv", "tensorboard"]))
         callback = TrainingCallback(out, config, run, wall_before, _software())
         previous = signal.signal(signal.SIGTERM, _terminate)
