@@ -33,7 +33,7 @@ from typing import Any, TypeVar
 
 from krl.progress import progress_bar
 
-__all__ = ["PARENT_POLL", "STOP_GRACE", "Interrupted", "run_jobs"]
+__all__ = ["PARENT_POLL", "STOP_GRACE", "Interrupted", "die_with_parent", "run_jobs"]
 
 J = TypeVar("J")
 R = TypeVar("R")
@@ -123,7 +123,7 @@ def _run_pool(
     pool = ProcessPoolExecutor(
         workers,
         mp_context=multiprocessing.get_context("spawn"),
-        initializer=_worker_init,
+        initializer=die_with_parent,
         initargs=(os.getpid(),),
     )
     try:
@@ -188,7 +188,7 @@ def _handlers(handler: Any) -> Iterator[None]:
             signal.signal(signum, old)
 
 
-def _worker_init(parent: int) -> None:
+def die_with_parent(parent: int) -> None:
     """Runs first in every worker: leave Ctrl-C to the parent, and die with the parent.
 
     Ctrl-C on a terminal reaches the whole process group; the parent stops the workers itself, so a

@@ -190,9 +190,11 @@ class ResidualEnvBatch:
         observations = self._observe(np.arange(self.num_envs))
         self.episode_reward += rewards
         self.episode_steps += 1
+        for index, sums in enumerate(self.episode_terms):
+            for name, values in terms.items():
+                sums[name] = sums.get(name, 0.0) + float(values[index])
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         for index in np.flatnonzero(terminated | truncated):
-            sums = self.episode_terms[index]
             infos[index]["episode"] = {
                 "r": float(self.episode_reward[index]),
                 "l": int(self.episode_steps[index]),
@@ -201,12 +203,8 @@ class ResidualEnvBatch:
                 "fell": bool(terminated[index]),
                 "unstable": bool(sims.unstable[index]),
                 "terrain": self.terrain_names[index],
-                "terms": {name: sums.get(name, 0.0) + float(values[index]) for name, values in terms.items()},
+                "terms": dict(self.episode_terms[index]),
             }
-        for index in range(self.num_envs):
-            sums = self.episode_terms[index]
-            for name, values in terms.items():
-                sums[name] = sums.get(name, 0.0) + float(values[index])
         return observations, rewards, terminated, truncated, infos
 
 

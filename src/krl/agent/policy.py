@@ -83,7 +83,6 @@ class Policy:
     def save(self, path: str | Path) -> Path:
         """Write the policy atomically to ``path`` (``.npz``)."""
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         header = {
             "format": FILE_FORMAT,
             "version": FILE_VERSION,

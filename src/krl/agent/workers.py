@@ -22,9 +22,9 @@ from krl.agent.config import AgentConfig
 
 
 def _worker(connection, parent: int, config_json: dict, num_envs: int, seed: int, kernel_path: str | None):
-    from krl.parallel import _worker_init
+    from krl.parallel import die_with_parent
 
-    _worker_init(parent)
+    die_with_parent(parent)
     from threadpoolctl import threadpool_limits
 
     limits = threadpool_limits(1)  # held for the worker's life

@@ -231,7 +231,8 @@ def _build_agent(spec: ControllerSpec, seed: int | None):
     from krl.agent.controller import AgentController
     from krl.agent.policy import load_policy
 
-    return AgentController(load_policy(spec.artifact(seed).path))
+    # AgentController checks the policy's kernel file itself: hash it once per run, not twice
+    return AgentController(load_policy(spec.artifact(seed).path, check_kernel=False))
 
 
 def _user_label(kind: str, name: str, shipped: tuple[str, ...], sha256: str) -> str:

@@ -121,7 +121,6 @@ class Kernel:
     def save(self, path: str | Path) -> Path:
         """Write the kernel atomically to ``path`` (``.npz``)."""
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         header = {
             "format": FILE_FORMAT,
             "version": FILE_VERSION,
