@@ -19,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from krl.control.commands import CommandParams
+from krl.control.types import JointCommand
+from krl.robots.a1.constants import STANDING_JOINT_ANGLES
 from krl.sim.pushes import scripted_push
 from krl.task.waypoints import WaypointTask
 from krl.timing import CONTROL_DT
@@ -31,6 +33,16 @@ PUSH_FORCE: float = 250.0
 """Force of a push from the keyboard [N]."""
 COMMAND_STEP: tuple[float, float] = (0.1, 0.1)
 """Change of the manual forward velocity [m/s] and yaw rate [rad/s] per key press."""
+
+
+class StandingController:
+    """Holds the standing pose: ``krl view`` without ``--controller`` (a :class:`~krl.control.types.Controller`)."""
+
+    def reset(self, state) -> None:
+        pass
+
+    def act(self, state, command) -> JointCommand:
+        return JointCommand(STANDING_JOINT_ANGLES)
 
 
 class LiveSession:

@@ -298,8 +298,7 @@ class ResidualVecEnv(VecEnv):
         super().__init__(num_envs, observation_space, action_space)
         self._seed = seed
         self._actions: np.ndarray | None = None
-        for index in range(num_envs):
-            self.batch.seed(index, seed + index)
+        self.seed(seed)
 
     def reset(self) -> np.ndarray:
         return self.batch.reset(np.arange(self.num_envs))

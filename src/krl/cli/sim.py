@@ -65,9 +65,9 @@ def cmd_view(args: argparse.Namespace) -> int:
         )
     from krl.eval.controllers import parse_controller
     from krl.sim.robot import A1Sim
-    from krl.viewer import LiveSession, run_viewer
+    from krl.viewer import LiveSession, StandingController, run_viewer
 
-    controller = parse_controller(args.controller).build() if args.controller else _Standing()
+    controller = parse_controller(args.controller).build() if args.controller else StandingController()
     if args.course:
         from krl.eval.courses import load_course
 
@@ -78,19 +78,6 @@ def cmd_view(args: argparse.Namespace) -> int:
         session = LiveSession(build_sim(args), controller)
     run_viewer(session)
     return 0
-
-
-class _Standing:
-    """The controller of ``krl view`` without ``--controller``: hold the standing pose."""
-
-    def reset(self, state) -> None:
-        pass
-
-    def act(self, state, command):
-        from krl.control.types import JointCommand
-        from krl.robots.a1.constants import STANDING_JOINT_ANGLES
-
-        return JointCommand(STANDING_JOINT_ANGLES)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
