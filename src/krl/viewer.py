@@ -36,7 +36,7 @@ COMMAND_STEP: tuple[float, float] = (0.1, 0.1)
 
 
 class StandingController:
-    """Holds the standing pose: ``krl view`` without ``--controller`` (a :class:`~krl.control.types.Controller`)."""
+    """The controller of ``krl view`` without ``--controller``: it holds the standing pose."""
 
     def reset(self, state) -> None:
         pass
