@@ -9,21 +9,20 @@ imports it.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections.abc import Sequence
 
 from krl.cli import agent, data, demo, expert, export, kernel, reproduce, sim
 from krl.cli import eval as evaluation
-from krl.cli.common import CliError
+from krl.cli.common import CliError, Parser
 
 EXIT_USAGE = 2
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser() -> Parser:
     from krl import __version__
 
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="krl",
         description="Kernel-based residual learning for quadruped locomotion (Unitree A1, MuJoCo).",
     )

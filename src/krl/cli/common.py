@@ -13,12 +13,56 @@ import dataclasses
 import inspect
 import json
 import math
+import re
+import sys
 from collections.abc import Sequence
 from typing import Any
 
 
 class CliError(Exception):
     """A user-facing error: printed as ``krl: error: <message>`` with exit status 2."""
+
+
+NEGATIVE_VALUE = re.compile(r"^-\.?\d")
+"""A command-line word that starts like a negative number (``-0.9,0.9``, ``-.5``, ``-3``)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """The parser of ``krl`` and of each of its subcommands (``add_subparsers`` makes its own kind).
+
+    An option's value may start with a minus sign: argparse alone takes ``-0.9,0.9`` in ``--target
+    -0.9,0.9`` for an option, as it recognises only plain negative numbers, so a word that starts like a
+    negative number after an option taking a value is joined to it (``--target=-0.9,0.9``) before
+    parsing. A usage error is one line on stderr (exit status 2), naming ``--help``.
+    """
+
+    def parse_known_args(self, args=None, namespace=None):
+        words = sys.argv[1:] if args is None else list(args)
+        return super().parse_known_args(self.join_negative_values(words), namespace)
+
+    def join_negative_values(self, words: Sequence[str]) -> list[str]:
+        """``words`` with each ``OPTION VALUE`` pair whose value starts like a negative number written as
+        ``OPTION=VALUE`` (this parser's options that take one value; nothing after ``--``)."""
+        takes_value = {
+            option for action in self._actions if action.nargs is None for option in action.option_strings
+        }
+        joined: list[str] = []
+        index = 0
+        while index < len(words):
+            word = words[index]
+            if word == "--":
+                return joined + list(words[index:])
+            following = words[index + 1] if index + 1 < len(words) else ""
+            if word in takes_value and NEGATIVE_VALUE.match(following):
+                joined.append(f"{word}={following}")
+                index += 2
+            else:
+                joined.append(word)
+                index += 1
+        return joined
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see `{self.prog} --help`)\n")
 
 
 def json_text(value: Any, **options: Any) -> str:
