@@ -1,5 +1,7 @@
 """Course files: the shipped ones load, bad ones fail with one line naming the problem."""
 
+from pathlib import Path
+
 import pytest
 
 from krl.eval.courses import SHIPPED_COURSES, THESIS_COURSES, CourseError, load_course
@@ -84,3 +86,34 @@ def test_unknown_course_name_and_broken_toml(tmp_path):
     path.write_text("format = = 1")
     with pytest.raises(CourseError, match="not a valid TOML file"):
         load_course(path)
+
+
+def _largest_excursion(course, tracking_lag):
+    """Largest |x| or |y| of the commanded paths from every start [m]."""
+    return max(abs(course.commanded_path(i, tracking_lag)[:, :2]).max() for i in range(len(course.starts)))
+
+
+def test_the_commanded_path_walks_the_course_as_an_ideal_follower(tmp_path):
+    path = tmp_path / "mine.toml"
+    path.write_text(GOOD)
+    course = load_course(path)
+    poses = course.commanded_path(0)
+    assert poses.shape[1] == 3 and (poses[0] == course.starts[0]).all()
+    last = poses[-1, :2]
+    # the walk ends once the last waypoint is within D_min, well before the time limit
+    assert abs(((last - course.waypoints[-1]) ** 2).sum() ** 0.5 - course.d_min) < 0.01
+    assert len(poses) * 0.005 < course.time_limit
+    lagging = course.commanded_path(0, tracking_lag=0.5)
+    assert len(lagging) > len(poses)
+    with pytest.raises(ValueError, match="tracking_lag"):
+        course.commanded_path(0, tracking_lag=-1.0)
+
+
+def test_the_table_tops_commanded_paths_stay_on_the_plate():
+    """A course that steers an ideal follower off the plate tests the command ramp, not the controller."""
+    course = load_course("tabletop")
+    half = course.build().terrain.landmarks["corner_max"][0]
+    for lag in (0.0, 0.3):
+        assert _largest_excursion(course, lag) < half - 0.5
+    old = load_course(Path(__file__).parents[2] / "examples" / "courses" / "tabletop-3m.toml")
+    assert _largest_excursion(old, 0.0) > old.build().terrain.landmarks["corner_max"][0]

@@ -13,10 +13,12 @@ import json
 import math
 import tomllib
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib.resources import files
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 COURSE_FORMAT = 1
 """Version of the course file format."""
@@ -88,6 +90,21 @@ class Course:
 
         points = self.waypoints if markers else ()
         return build_model(self.terrain, self.terrain_params, self.terrain_seed, markers=points)
+
+    def commanded_path(self, start: int, tracking_lag: float = 0.0) -> np.ndarray:
+        """Where the course's commands lead from start pose ``start`` (an index of :attr:`starts`): the
+        path of an ideal command follower (:func:`krl.task.waypoints.commanded_path`), (x, y, yaw)
+        [m, m, rad] per control step. Shape: (steps + 1, 3)."""
+        from krl.control.commands import CommandParams
+        from krl.task import WaypointTask, commanded_path
+
+        task = WaypointTask(
+            np.array(self.waypoints),
+            replace(CommandParams(), d_min=self.d_min),
+            target_time_limit=self.time_limit,
+            time_limit=self.time_limit,
+        )
+        return commanded_path(task, self.starts[start], tracking_lag)
 
 
 def shipped_course_path(name: str) -> Path:

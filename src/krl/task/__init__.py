@@ -4,6 +4,20 @@ Used by the runner (:mod:`krl.runner`), the episode scorer (:mod:`krl.eval.episo
 agent's environment (:mod:`krl.agent.env`), so that "reached" and the reward cannot disagree.
 """
 
-from krl.task.waypoints import TARGET_DISTANCE, TARGET_TIME_LIMIT, TaskStatus, WaypointTask, random_targets
+from krl.task.waypoints import (
+    TARGET_DISTANCE,
+    TARGET_TIME_LIMIT,
+    TaskStatus,
+    WaypointTask,
+    commanded_path,
+    random_targets,
+)
 
-__all__ = ["TARGET_DISTANCE", "TARGET_TIME_LIMIT", "TaskStatus", "WaypointTask", "random_targets"]
+__all__ = [
+    "TARGET_DISTANCE",
+    "TARGET_TIME_LIMIT",
+    "TaskStatus",
+    "WaypointTask",
+    "commanded_path",
+    "random_targets",
+]

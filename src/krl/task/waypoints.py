@@ -205,3 +205,48 @@ class WaypointTask:
         self.steps_on_target += 1
         self._observe(base_xy)
         return WaypointStep(self.index, self.distance, self._within)
+
+
+def commanded_path(
+    task: WaypointTask,
+    start_pose: tuple[float, float, float],
+    tracking_lag: float = 0.0,
+    max_time: float = 600.0,
+) -> np.ndarray:
+    """The path of a robot that follows ``task``'s velocity commands ideally, from ``start_pose``.
+
+    The robot is a planar body moving at the commanded base-frame velocity (v_x, v_y, ω_z), reached
+    through a first-order lag of time constant ``tracking_lag`` [s] (0: exactly), integrated at the
+    control rate. It shows where a course's commands lead whatever the controller: a course whose
+    commanded path leaves a prop tests the command generator's ramp, not the controller (the shipped
+    courses keep it on their props; ``docs/evaluation.md``). ``task`` is reset and walked to its end (all
+    waypoints, its time limits, or ``max_time`` [s]).
+
+    Args:
+        task: the walk; reset here.
+        start_pose: (x [m], y [m], yaw [rad]).
+        tracking_lag: time constant of the velocity tracking [s], >= 0.
+        max_time: longest walk simulated [s].
+
+    Returns:
+        (x, y, yaw) after every control step [m, m, rad]. Shape: (steps + 1, 3), the start first.
+    """
+    if not tracking_lag >= 0.0:
+        raise ValueError(f"tracking_lag must be >= 0 s, got {tracking_lag}")
+    pose = np.array(start_pose, dtype=float)
+    velocity = np.zeros(3)
+    blend = 1.0 if tracking_lag == 0.0 else min(1.0, CONTROL_DT / tracking_lag)
+    task.reset(pose[:2])
+    poses = [pose.copy()]
+    for _ in range(round(max_time / CONTROL_DT)):
+        command = task.command(pose[:2], float(pose[2]))
+        if command is None:
+            break
+        velocity += blend * (command - velocity)
+        cos, sin = math.cos(pose[2]), math.sin(pose[2])
+        pose += CONTROL_DT * np.array(
+            [cos * velocity[0] - sin * velocity[1], sin * velocity[0] + cos * velocity[1], velocity[2]]
+        )
+        task.after_step(pose[:2])
+        poses.append(pose.copy())
+    return np.array(poses)
