@@ -87,9 +87,7 @@ class KernelController:
     def foot_targets(self, state: RobotState, command: np.ndarray) -> np.ndarray:
         """Advance the gait clock and return the kernel's foot targets, base frame [m]. Shape: (4, 3)."""
         self.gait.step()
-        row = input_columns(
-            state, command, self.gait.normalised_phases, self.step_height, self.ride_height
-        )
+        row = input_columns(state, command, self.gait.normalised_phases, self.step_height, self.ride_height)
         variant = self.kernel.variant
         if variant == "dyn2":
             self._history.append(row)
