@@ -12,6 +12,9 @@ step of the controller, driven by the course's waypoint task or by a command the
 | up / down | manual command: forward velocity ± 0.1 m/s |
 | left / right | manual command: yaw rate ± 0.1 rad/s |
 | C | back to the course's waypoints (leave the manual command) |
+
+The camera follows the trunk (MuJoCo's mouse controls still turn and zoom it; Escape frees it); the viewer's
+own panels start hidden (Tab and Shift+Tab show them). What happens (falls, pushes, resets) is printed.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from krl.control.commands import CommandParams
 from krl.control.types import JointCommand
 from krl.robots.a1.constants import STANDING_JOINT_ANGLES
 from krl.sim.pushes import scripted_push
+from krl.sim.render import CameraView
 from krl.task.waypoints import WaypointTask
 from krl.timing import CONTROL_DT
 
@@ -33,6 +37,8 @@ PUSH_FORCE: float = 250.0
 """Force of a push from the keyboard [N]."""
 COMMAND_STEP: tuple[float, float] = (0.1, 0.1)
 """Change of the manual forward velocity [m/s] and yaw rate [rad/s] per key press."""
+VIEW_CAMERA = CameraView(distance=2.2, azimuth=135.0, elevation=-20.0)
+"""The viewer's camera: it tracks the trunk from this distance [m] and these angles [deg]."""
 
 
 class StandingController:
@@ -127,17 +133,84 @@ class LiveSession:
             self.messages.append(f"fell at t = {state.time:.1f} s (backspace resets)")
 
 
+HEADLESS_HINT = (
+    "on a headless machine use `krl render --terrain NAME --out FILE.png`, or `krl demo` / `--video` for a "
+    "walking robot"
+)
+
+
+def window_problem() -> str | None:
+    """Why MuJoCo's viewer cannot open a window here (one line), or None when it can: no display is set, or
+    GLFW cannot open the one that is (a stale ``DISPLAY`` over SSH, a stopped X server)."""
+    import glfw
+
+    from krl.sim.render import has_display
+
+    if not has_display():
+        return f"`krl view` needs a display (DISPLAY/WAYLAND_DISPLAY is unset); {HEADLESS_HINT}"
+    reporting, glfw.ERROR_REPORTING = glfw.ERROR_REPORTING, "ignore"  # read by get_error instead
+    try:
+        if not glfw.init():
+            _, description = glfw.get_error()
+            reason = description.decode(errors="replace") if description else "glfwInit failed"
+            return f"`krl view` cannot open a window: {reason}; {HEADLESS_HINT}"
+        glfw.terminate()
+    finally:
+        glfw.ERROR_REPORTING = reporting
+    return None
+
+
+def aim_camera(camera, model, view: CameraView = VIEW_CAMERA) -> None:
+    """Point a ``mujoco.MjvCamera`` at the trunk, tracking it, from ``view``'s distance and angles."""
+    import mujoco
+
+    camera.type = mujoco.mjtCamera.mjCAMERA_TRACKING
+    camera.trackbodyid = model.body("trunk").id
+    camera.distance = view.distance
+    camera.azimuth = view.azimuth
+    camera.elevation = view.elevation
+
+
 def run_viewer(session: LiveSession) -> None:
-    """Open MuJoCo's viewer on the session and step it in real time until the window closes."""
+    """Open MuJoCo's viewer on the session and step it in real time until the window closes or Ctrl-C
+    (then KeyboardInterrupt, once the window is gone); print the session's messages as they come.
+
+    The viewer draws on a daemon thread, which is waited for after the window is asked to close: an
+    interpreter that exits while that thread still tears down its OpenGL context dies by a segmentation
+    fault. Ctrl-C only sets a flag, so it never interrupts a frame half-synchronised.
+    """
+    import signal
+    import threading
     import time
 
     import mujoco.viewer
 
-    with mujoco.viewer.launch_passive(
-        session.sim.model, session.sim.data, key_callback=session.key
-    ) as viewer:
-        while viewer.is_running():
-            started = time.perf_counter()
-            session.step()
-            viewer.sync()
-            time.sleep(max(0.0, CONTROL_DT - (time.perf_counter() - started)))
+    interrupted = threading.Event()
+    before = set(threading.enumerate())
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: interrupted.set())
+    try:
+        with mujoco.viewer.launch_passive(
+            session.sim.model,
+            session.sim.data,
+            key_callback=session.key,
+            show_left_ui=False,
+            show_right_ui=False,
+        ) as viewer:
+            drawing = set(threading.enumerate()) - before
+            with viewer.lock():
+                aim_camera(viewer.cam, session.sim.model)
+            shown = 0
+            while viewer.is_running() and not interrupted.is_set():
+                started = time.perf_counter()
+                session.step()
+                viewer.sync()
+                for message in session.messages[shown:]:
+                    print(f"krl view: {message}", flush=True)
+                shown = len(session.messages)
+                time.sleep(max(0.0, CONTROL_DT - (time.perf_counter() - started)))
+        for thread in drawing:
+            thread.join(timeout=10.0)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if interrupted.is_set():
+        raise KeyboardInterrupt

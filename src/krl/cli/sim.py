@@ -56,13 +56,11 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 
 def cmd_view(args: argparse.Namespace) -> int:
-    from krl.sim.render import has_display
+    from krl.viewer import window_problem
 
-    if not has_display():
-        raise CliError(
-            "`krl view` needs a display (DISPLAY/WAYLAND_DISPLAY is unset); on a headless machine use "
-            "`krl render --terrain NAME --out FILE.png`, or `krl demo` / `--video` for a walking robot"
-        )
+    problem = window_problem()
+    if problem is not None:
+        raise CliError(problem)
     from krl.eval.controllers import parse_controller
     from krl.sim.robot import A1Sim
     from krl.viewer import LiveSession, StandingController, run_viewer
