@@ -77,7 +77,8 @@ class ResidualEnvBatch:
         self.episodes_on_terrain = np.zeros(num_envs, dtype=np.int64)
         self.episode_reward = np.zeros(num_envs)
         self.episode_steps = np.zeros(num_envs, dtype=np.int64)
-        self.episode_terms: list[dict[str, float]] = [{} for _ in range(num_envs)]
+        self.episode_terms: dict[str, np.ndarray] = {}
+        """Each reward term summed over the current episodes, one array of shape (N,) per term."""
         self.episode_start = [time.perf_counter()] * num_envs
         self.terrain_names = [""] * num_envs
         self.needs_terrain = np.ones(num_envs, dtype=bool)
@@ -122,7 +123,7 @@ class ResidualEnvBatch:
             self.episodes_on_terrain[index] += 1
             rng = self.rngs[index]
             sim = self.sims.sims[index]
-            state = sim.reset(yaw=float(rng.uniform(-np.pi, np.pi)))
+            state = self.sims.reset(index, yaw=float(rng.uniform(-np.pi, np.pi)))
             low, high = sim.terrain.landmarks["field_min"], sim.terrain.landmarks["field_max"]
             margin = env.field_margin
             bounds = (low[0] + margin, low[1] + margin, high[0] - margin, high[1] - margin)
@@ -136,12 +137,12 @@ class ResidualEnvBatch:
             self.push_schedules[index] = PushSchedule(self.pushes, rng) if env.pushes else None
             self.episode_reward[index] = 0.0
             self.episode_steps[index] = 0
-            self.episode_terms[index] = {}
+            for sums in self.episode_terms.values():
+                sums[index] = 0.0
             self.episode_start[index] = time.perf_counter()
         self.controller.reset(rows)
         self.states = self.sims.states
-        states = StateBatch.from_states([self.sims.sims[i].state for i in rows])
-        self._prepare(states, rows)
+        self._prepare(self.states.rows(rows), rows)
         return self._observe(rows)
 
     # --- stepping ----------------------------------------------------------------------------------
@@ -149,8 +150,9 @@ class ResidualEnvBatch:
     def _prepare(self, states: StateBatch, rows: np.ndarray) -> None:
         """The coming step's commands from the tasks (zero where a task is over) and the kernel's targets."""
         commands = np.zeros((len(rows), 3))
+        base_xy, yaws = states.base_pos[:, :2], states.rpy[:, 2].tolist()
         for k, index in enumerate(rows):
-            command = self.tasks[index].command(states.base_pos[k, :2], float(states.rpy[k, 2]))
+            command = self.tasks[index].command(base_xy[k], yaws[k])
             if command is not None:
                 commands[k] = command
         self.controller.prepare(states, commands, rows)
@@ -190,9 +192,11 @@ class ResidualEnvBatch:
         observations = self._observe(np.arange(self.num_envs))
         self.episode_reward += rewards
         self.episode_steps += 1
-        for index, sums in enumerate(self.episode_terms):
-            for name, values in terms.items():
-                sums[name] = sums.get(name, 0.0) + float(values[index])
+        for name, values in terms.items():
+            sums = self.episode_terms.get(name)
+            if sums is None:
+                sums = self.episode_terms[name] = np.zeros(self.num_envs)
+            sums += values
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         for index in np.flatnonzero(terminated | truncated):
             infos[index]["episode"] = {
@@ -203,7 +207,7 @@ class ResidualEnvBatch:
                 "fell": bool(terminated[index]),
                 "unstable": bool(sims.unstable[index]),
                 "terrain": self.terrain_names[index],
-                "terms": dict(self.episode_terms[index]),
+                "terms": {name: float(sums[index]) for name, sums in self.episode_terms.items()},
             }
         return observations, rewards, terminated, truncated, infos
 

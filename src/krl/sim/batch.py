@@ -1,23 +1,28 @@
 """N simulated A1s stepped together, and their states as arrays with a leading robot axis.
 
 :class:`SimBatch` holds one :class:`krl.sim.robot.A1Sim` per robot (each on its own model, so terrains
-can differ) and steps them one after the other in this process: a step of the batch is bit-identical to
-stepping N single simulators, which is what lets the residual agent's batched environment promise the
-transitions of N single environments. Everything around the physics (kernel, filter, IK, observation,
-reward) then works on :class:`StateBatch` arrays at once. ``benchmarks/README.md`` records why this was
-preferred over ``mujoco.batch.Batch`` for the agent's environment.
+can differ) and steps them one after the other in this process, the physics of each exactly as
+:meth:`krl.sim.robot.A1Sim.step` runs it: a step of the batch is bit-identical to stepping N single
+simulators, which is what lets the residual agent's batched environment promise the transitions of N
+single environments. Around the physics the batch works on all N at once: the motor envelope, and the
+state readout, which gathers each robot's ``MjData`` arrays into ``(N, ...)`` arrays and computes the
+:class:`StateBatch` from them with the single robot's own :func:`krl.sim.robot.state_fields`.
+Everything downstream (kernel, filter, IK, observation, reward) then works on :class:`StateBatch` arrays
+as well. ``benchmarks/README.md`` records why this was preferred over ``mujoco.batch.Batch``.
 """
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 
+import mujoco
 import numpy as np
 
+from krl.robots.a1.constants import NUM_JOINTS
 from krl.sim.model import BuiltModel
-from krl.sim.robot import A1Sim, RobotState, SimulationUnstableError
+from krl.sim.robot import A1Sim, RobotState, SimulationUnstableError, _torque_bounds_into, state_fields
+from krl.timing import CONTROL_DT
 
 
 @dataclass(slots=True)
@@ -59,6 +64,20 @@ class StateBatch:
     def __len__(self) -> int:
         return len(self.time)
 
+    def rows(self, index: np.ndarray | slice) -> StateBatch:
+        """The robots ``index`` selects (an index array or a slice), as a new batch of copies."""
+        return StateBatch(*(np.array(getattr(self, name)[index]) for name in _FIELD_NAMES))
+
+    def row(self, index: int) -> RobotState:
+        """Robot ``index`` as a single state (copies of its rows)."""
+        values = {name: getattr(self, name)[index] for name in _FIELD_NAMES}
+        return RobotState(
+            **{name: value.copy() for name, value in values.items() if isinstance(value, np.ndarray)},
+            time=float(values["time"]),
+            trunk_contact=bool(values["trunk_contact"]),
+            fallen=bool(values["fallen"]),
+        )
+
 
 _FIELD_NAMES: tuple[str, ...] = tuple(f.name for f in fields(RobotState))
 if _FIELD_NAMES != tuple(f.name for f in fields(StateBatch)):  # pragma: no cover - a guard for editors
@@ -76,41 +95,117 @@ class SimBatch:
         if not models:
             raise ValueError("a simulator batch needs at least one model")
         self.sims = [A1Sim(built) for built in models]
+        first = self.sims[0]
+        self._layout = (first._foot_sites.tolist(), first._foot_sensor_adr.tolist(), first._trunk_sensor_adr)
+        for sim in self.sims[1:]:
+            self._check_layout(sim)
+        low, high = first._foot_sites.min(), first._foot_sites.max() + 1
+        self._site_rows = slice(low, high)
+        """The rows of ``site_xpos`` a step copies out: the foot sites' (``_foot_rows`` within them). Of
+        ``sensordata`` it copies the first ``_sensor_count``: the feet's and the trunk's touch sensors."""
+        self._foot_rows = first._foot_sites - low
+        self._sensor_count = max(first._foot_sensor_adr.max(), first._trunk_sensor_adr) + 1
         self.unstable = np.zeros(len(self.sims), dtype=bool)
         """Robots whose physics diverged in the last :meth:`step`."""
+        self._states = StateBatch.from_states([sim.state for sim in self.sims])
 
     def __len__(self) -> int:
         return len(self.sims)
 
+    def _check_layout(self, sim: A1Sim) -> None:
+        layout = (sim._foot_sites.tolist(), sim._foot_sensor_adr.tolist(), sim._trunk_sensor_adr)
+        if layout != self._layout:
+            raise ValueError("a simulator batch needs models with the A1's sites and sensors in one place")
+
     def replace(self, index: int, built: BuiltModel) -> None:
         """Put robot ``index`` on another model (a new terrain); reset it afterwards."""
-        self.sims[index] = A1Sim(built)
+        sim = A1Sim(built)
+        self._check_layout(sim)
+        self.sims[index] = sim
+        self._reload(index)
 
     def reset(self, index: int, xy: tuple[float, float] | None = None, yaw: float = 0.0) -> RobotState:
         """Reset robot ``index`` (:meth:`krl.sim.robot.A1Sim.reset`)."""
-        return self.sims[index].reset(xy=xy, yaw=yaw)
+        state = self.sims[index].reset(xy=xy, yaw=yaw)
+        self._reload(index)
+        return state
+
+    def _reload(self, index: int) -> None:
+        """Take robot ``index``'s state from its simulator (after a reset) into a new :attr:`states`."""
+        states = self._states.rows(slice(None))
+        state = self.sims[index].state
+        for name in _FIELD_NAMES:
+            getattr(states, name)[index] = getattr(state, name)
+        self._states = states
 
     @property
     def states(self) -> StateBatch:
-        """The robots' current states."""
-        return StateBatch.from_states([sim.state for sim in self.sims])
+        """The robots' current states (the batch the last :meth:`step` returned, or newer after a reset);
+        treat it as read-only."""
+        return self._states
 
     def step(self, q_target: np.ndarray) -> StateBatch:
-        """One control step of every robot with joint-angle targets [rad] (shape (N, 12)) and the Table 4.2
-        PD.
+        """One control step of every robot with joint-angle targets [rad] (shape (N, 12)) and the robots'
+        PD gains (Table 4.2 unless a robot's were changed through its own :meth:`A1Sim.step`).
 
-        A robot whose physics diverges (:class:`krl.sim.robot.SimulationUnstableError`) keeps its last
-        state, marked fallen, and is flagged in :attr:`unstable` until the next step; reset it.
+        Each robot's physics is :meth:`krl.sim.robot.A1Sim.step`'s (its pushes included); the motor
+        envelope and the readout are computed for all N at once. A robot whose physics diverges
+        (:class:`krl.sim.robot.SimulationUnstableError`) keeps its last state, marked fallen, and is
+        flagged in :attr:`unstable` until the next step; reset it. Raises ``ValueError`` for a
+        wrong-shaped or non-finite ``q_target``.
         """
         q_target = np.asarray(q_target, dtype=float)
-        if q_target.shape != (len(self.sims), 12):
-            raise ValueError(f"q_target must have shape ({len(self.sims)}, 12), got {q_target.shape}")
-        states = []
+        n = len(self.sims)
+        if q_target.shape != (n, NUM_JOINTS):
+            raise ValueError(f"q_target must have shape ({n}, 12), got {q_target.shape}")
+        if not np.isfinite(q_target).all():
+            raise ValueError("q_target contains non-finite values")
+        previous = self._states
+        joint_vel = np.array([sim._qvel[6 : 6 + NUM_JOINTS] for sim in self.sims])  # [rad/s]
+        bounds = np.empty((n, NUM_JOINTS, 2))  # the actuators' force ranges, (lower, upper) [N·m]
+        _torque_bounds_into(joint_vel, bounds[..., 0], bounds[..., 1])
+        # what the robots' MjData hold after the step (zero where a robot diverged: its last state is kept)
+        qpos, qvel = np.zeros((n, 19)), np.zeros((n, 18))
+        rot = np.zeros((n, 9))
+        sites = np.zeros((n, self._site_rows.stop - self._site_rows.start, 3))
+        sensors = np.zeros((n, self._sensor_count))
+        torque, com = np.zeros((n, NUM_JOINTS)), np.zeros((n, 3))
         self.unstable[:] = False
         for index, (sim, q) in enumerate(zip(self.sims, q_target, strict=True)):
+            np.multiply(sim._kp, q, out=sim._ctrl)
+            if sim.motor_envelope:
+                sim._forcerange[:] = bounds[index]
             try:
-                states.append(sim.step(q))
+                sim._physics_step(previous.base_pos[index], previous.base_rot[index])
             except SimulationUnstableError:
                 self.unstable[index] = True
-                states.append(dataclasses.replace(sim.state, fallen=True))
-        return StateBatch.from_states(states)
+                sim._state = previous.row(index)
+                continue
+            sim._state = None  # read from its MjData when asked for
+            qpos[index] = sim._qpos
+            qvel[index] = sim._qvel
+            mujoco.mju_quat2Mat(rot[index], qpos[index, 3:7])
+            sites[index] = sim._site_xpos[self._site_rows]
+            sensors[index] = sim._sensordata[: self._sensor_count]
+            torque[index] = sim._actuator_force
+            com[index] = sim._trunk_com
+        foot_adr, trunk_adr = self._layout[1:]
+        states = StateBatch(
+            *state_fields(
+                np.array([sim._step for sim in self.sims]) * CONTROL_DT,
+                qpos,
+                qvel,
+                rot,
+                sites[:, self._foot_rows],
+                sensors[:, foot_adr],
+                sensors[:, trunk_adr],
+                torque,
+                com,
+            )
+        )
+        for index in np.flatnonzero(self.unstable):
+            for name in _FIELD_NAMES:
+                getattr(states, name)[index] = getattr(previous, name)[index]
+            states.fallen[index] = True
+        self._states = states
+        return states

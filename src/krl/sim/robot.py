@@ -4,7 +4,9 @@ One call of :meth:`A1Sim.step` is one 200 Hz control step: it writes the joint c
 actuators (``ctrl = kp * q_target + tau_ff`` with ``kp``/``kd`` in the actuators' bias parameters, so
 MuJoCo evaluates ``tau = kp (q_target - q) - kd q̇ + tau_ff`` at every 1 ms physics step), runs the
 five physics steps in one ``mj_step`` call, refreshes positions with ``mj_kinematics`` and returns a
-:class:`RobotState`. Only this module mutates ``MjData``.
+:class:`RobotState`. Only this module and :mod:`krl.sim.batch` (which steps many simulators through
+:meth:`A1Sim._physics_step` and reads their states out together with :func:`state_fields`) mutate
+``MjData``.
 """
 
 from __future__ import annotations
@@ -161,14 +163,30 @@ class A1Sim:
         self._kp = KP.copy()
         self._kd = KD.copy()
         self._write_gains(self._kp, self._kd)
-        self._rot = np.zeros(9)
         self._warning_counts = self.data.warning.number  # a view into MjData
         # views into the model's actuator force ranges, written in place by the motor envelope
         self._lower = self._forcerange[:, 0]
         self._upper = self._forcerange[:, 1]
         self._step = 0
         self._push: Push | None = None
-        self.state: RobotState = self.reset()
+        # views into MjData read after every step (MjData's attributes make a new array on every access)
+        self._ctrl = self.data.ctrl[:NUM_JOINTS]
+        self._qpos = self.data.qpos[:19]
+        self._qvel = self.data.qvel[:18]
+        self._site_xpos = self.data.site_xpos
+        self._sensordata = self.data.sensordata
+        self._actuator_force = self.data.actuator_force[:NUM_JOINTS]
+        self._trunk_com = self.data.subtree_com[self._trunk]
+        self._state: RobotState | None = None
+        self.reset()
+
+    @property
+    def state(self) -> RobotState:
+        """The state after the last step or reset (after a :class:`SimulationUnstableError`: the last one
+        before it)."""
+        if self._state is None:  # a step of krl.sim.batch.SimBatch, which reads its states out itself
+            self._state = self._read_state()
+        return self._state
 
     # --- reset -------------------------------------------------------------------------------------
 
@@ -202,8 +220,8 @@ class A1Sim:
         self._write_gains(self._kp, self._kd)
         self.data.ctrl[:NUM_JOINTS] = self._kp * angles
         mujoco.mj_forward(self.model, self.data)
-        self.state = self._read_state()
-        return self.state
+        self._state = self._read_state()
+        return self._state
 
     # --- stepping ----------------------------------------------------------------------------------
 
@@ -249,12 +267,24 @@ class A1Sim:
         ctrl = self._kp * q_target
         if tau_ff is not None:
             ctrl += _check_joint_vector(tau_ff, "tau_ff")
-        self.data.ctrl[:NUM_JOINTS] = ctrl
+        self._ctrl[:] = ctrl
         if self.motor_envelope:
-            _torque_bounds_into(self.data.qvel[6 : 6 + NUM_JOINTS], self._lower, self._upper)
+            _torque_bounds_into(self._qvel[6 : 6 + NUM_JOINTS], self._lower, self._upper)
+        state = self.state
+        self._physics_step(state.base_pos, state.base_rot)
+        self._state = self._read_state()
+        return self._state
+
+    def _physics_step(self, base_pos: np.ndarray, base_rot: np.ndarray) -> None:
+        """The physics of one control step once the actuators hold the command and the motor envelope:
+        the five physics steps (with the pending push), the stability check and the kinematics the
+        readout needs (``mj_kinematics``, ``mj_comPos``). ``base_pos`` [m] (shape (3,)) and ``base_rot``
+        (shape (3, 3)): the trunk's pose before the step, as the last readout gave it; a push acts there.
+        Raises :class:`SimulationUnstableError`.
+        """
         push = self._push
         if push is not None and push.active_at(self._step):
-            self._step_pushed(push)
+            self._step_pushed(push, base_pos, base_rot)
         else:
             mujoco.mj_step(self.model, self.data, nstep=SUBSTEPS)
         self._step += 1
@@ -263,8 +293,6 @@ class A1Sim:
         self._check_stable()
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_comPos(self.model, self.data)
-        self.state = self._read_state()
-        return self.state
 
     def push(self, push: Push) -> None:
         """Schedule ``push`` (replacing any pending one); it acts from its ``start_time`` on."""
@@ -277,10 +305,9 @@ class A1Sim:
         """The scheduled or active push, if any."""
         return self._push
 
-    def _step_pushed(self, push: Push) -> None:
+    def _step_pushed(self, push: Push, base_pos: np.ndarray, base_rot: np.ndarray) -> None:
         d = self.data
-        base_rot = self.state.base_rot
-        point_world = self.state.base_pos + base_rot @ push.point
+        point_world = base_pos + base_rot @ push.point
         torque = np.cross(point_world - d.xipos[self._trunk], push.force)
         d.xfrc_applied[self._trunk, :3] = push.force
         d.xfrc_applied[self._trunk, 3:] = torque
@@ -310,51 +337,94 @@ class A1Sim:
             )
 
     def _read_state(self) -> RobotState:
-        d = self.data
-        qpos = d.qpos[:19].copy()
-        qvel = d.qvel[:18].copy()
-        base_pos = qpos[0:3]
-        quat = qpos[3:7]
-        rot_flat = self._rot
-        mujoco.mju_quat2Mat(rot_flat, quat)
-        rot = rot_flat.reshape(3, 3).copy()
-        lin_vel_world = qvel[0:3]
-        ang_vel_base = qvel[3:6]
-        gravity_base = -rot[2]
-        r20, r21, r22 = rot_flat[6], rot_flat[7], rot_flat[8]
-        rpy = np.array(
-            [
-                math.atan2(r21, r22),
-                -math.asin(min(1.0, max(-1.0, r20))),
-                math.atan2(rot_flat[3], rot_flat[0]),
-            ]
+        qpos = self._qpos.copy()
+        rot = np.empty(9)
+        mujoco.mju_quat2Mat(rot, qpos[3:7])
+        sensors = self._sensordata
+        *fields, trunk_contact, fallen = state_fields(
+            self.time,
+            qpos,
+            self._qvel.copy(),
+            rot,
+            self._site_xpos[self._foot_sites],
+            sensors[self._foot_sensor_adr],
+            sensors[self._trunk_sensor_adr],
+            self._actuator_force.copy(),
+            self._trunk_com.copy(),
         )
-        foot_world = d.site_xpos[self._foot_sites]
-        sensors = d.sensordata
-        foot_force = sensors[self._foot_sensor_adr]
-        trunk_contact = sensors[self._trunk_sensor_adr] > 0.0
-        return RobotState(
-            time=self.time,
-            base_pos=base_pos,
-            base_quat=quat,
-            base_rot=rot,
-            rpy=rpy,
-            projected_gravity=gravity_base,
-            lin_vel_world=lin_vel_world,
-            lin_vel_base=lin_vel_world @ rot,
-            ang_vel_world=rot @ ang_vel_base,
-            ang_vel_base=ang_vel_base,
-            joint_pos=qpos[7:19],
-            joint_vel=qvel[6:18],
-            joint_torque=d.actuator_force[:NUM_JOINTS].copy(),
-            foot_pos_world=foot_world,
-            foot_pos_base=(foot_world - base_pos) @ rot,
-            foot_force=foot_force,
-            foot_contact=foot_force > 0.0,
-            com=d.subtree_com[self._trunk].copy(),
-            trunk_contact=bool(trunk_contact),
-            fallen=bool(trunk_contact or r22 < _COS_FALL_TILT),
-        )
+        return RobotState(*fields, trunk_contact=bool(trunk_contact), fallen=bool(fallen))
+
+
+def state_fields(
+    time: float | np.ndarray,
+    qpos: np.ndarray,
+    qvel: np.ndarray,
+    rot: np.ndarray,
+    foot_world: np.ndarray,
+    foot_force: np.ndarray,
+    trunk_force: float | np.ndarray,
+    joint_torque: np.ndarray,
+    com: np.ndarray,
+) -> tuple:
+    """The fields of :class:`RobotState`, in its order, from what ``MjData`` holds after a step: the one
+    readout of :meth:`A1Sim.step` and of :meth:`krl.sim.batch.SimBatch.step` (N robots at once).
+
+    Every input has the shape of one robot, ``(...)`` below, or a leading axis of N; the results are
+    views of the inputs or new arrays, never copies of ``MjData`` memory (pass copies).
+
+    Args:
+        time: simulation time [s]. Shape: (...).
+        qpos: the robot's ``qpos`` (free joint, then the 12 joints) [m, 1, rad]. Shape: (..., 19).
+        qvel: the robot's ``qvel`` [m/s, rad/s]. Shape: (..., 18).
+        rot: ``mju_quat2Mat`` of the trunk quaternion ``qpos[3:7]``, row-major. Shape: (..., 9).
+        foot_world: foot-sphere centres in W [m]. Shape: (..., 4, 3).
+        foot_force: the feet's touch sensors [N]. Shape: (..., 4).
+        trunk_force: the trunk's touch sensor [N]. Shape: (...).
+        joint_torque: actuator forces [N·m]. Shape: (..., 12).
+        com: the trunk's subtree centre of mass in W [m]. Shape: (..., 3).
+    """
+    base_pos = qpos[..., 0:3]
+    base_rot = rot.reshape(*rot.shape[:-1], 3, 3)
+    lin_vel_world = qvel[..., 0:3]
+    ang_vel_base = qvel[..., 3:6]
+    trunk_contact = trunk_force > 0.0
+    return (
+        time,
+        base_pos,
+        qpos[..., 3:7],
+        base_rot,
+        _rpy(rot),
+        -base_rot[..., 2, :],
+        lin_vel_world,
+        np.matmul(lin_vel_world[..., None, :], base_rot)[..., 0, :],
+        np.matmul(base_rot, ang_vel_base[..., None])[..., 0],
+        ang_vel_base,
+        qpos[..., 7:19],
+        qvel[..., 6:18],
+        joint_torque,
+        foot_world,
+        np.matmul(foot_world - base_pos[..., None, :], base_rot),
+        foot_force,
+        foot_force > 0.0,
+        com,
+        trunk_contact,
+        trunk_contact | (rot[..., 8] < _COS_FALL_TILT),
+    )
+
+
+def _rpy(rot: np.ndarray) -> np.ndarray:
+    """Roll, pitch, yaw [rad] of row-major rotation matrices (shape (..., 9)), shape (..., 3).
+
+    With ``math``'s (libm's) atan2 and asin, one robot at a time: NumPy's SIMD arctan2/arcsin can differ
+    from them in the last bit, and the readout of one robot and of a batch must agree exactly.
+    """
+    flat = rot.reshape(-1, 9).T.tolist()
+    r00, r10, r20, r21, r22 = flat[0], flat[3], flat[6], flat[7], flat[8]
+    rpy = [
+        (math.atan2(a21, a22), -math.asin(min(1.0, max(-1.0, a20))), math.atan2(a10, a00))
+        for a00, a10, a20, a21, a22 in zip(r00, r10, r20, r21, r22, strict=True)
+    ]
+    return np.array(rpy).reshape(*rot.shape[:-1], 3)
 
 
 def _check_joint_vector(value: np.ndarray, name: str) -> np.ndarray:
