@@ -124,7 +124,7 @@ def _finite_array(name: str, value: Any, last_dim: int | None) -> np.ndarray:
         raise ValueError(f"{name} must be a numeric array, got {value!r}") from None
     if last_dim is not None and (arr.ndim == 0 or arr.shape[-1] != last_dim):
         raise ValueError(f"{name} must have shape (..., {last_dim}), got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise ValueError(f"{name} must be finite, got {value!r}")
     return arr
 
@@ -177,10 +177,16 @@ def next_command(
             "leading dimensions do not broadcast: target_xy "
             f"{target.shape}, base_xy {base.shape}, yaw {yaw_arr.shape}, previous_cmd {prev.shape}"
         ) from None
+    return _next_command(target, base, yaw_arr, prev, params)
 
+
+def _next_command(
+    target: np.ndarray, base: np.ndarray, yaw: np.ndarray, prev: np.ndarray, params: CommandParams
+) -> np.ndarray:
+    """:func:`next_command` on checked float arrays (finite, broadcastable), for callers that checked them."""
     delta = target - base
     dist = np.hypot(delta[..., 0], delta[..., 1])
-    theta = wrap_angle(np.arctan2(delta[..., 1], delta[..., 0]) - yaw_arr)
+    theta = wrap_angle(np.arctan2(delta[..., 1], delta[..., 0]) - yaw)
     theta = np.where(dist > 0.0, theta, 0.0)
     raw = np.stack(
         np.broadcast_arrays(dist * np.cos(theta), dist * np.sin(theta), params.yaw_gain * theta), -1
@@ -303,8 +309,10 @@ class CommandGenerator:
                 p = self._params
                 ramp = self._command + np.clip(-self._command, -p.rate_limit, p.rate_limit)
                 self._command = _limit(ramp, p)
-            else:
-                self._command = next_command(self._target, base, yaw_f, self._command, self._params)
+            else:  # base and yaw checked above, the target by set_target
+                self._command = _next_command(
+                    self._target, base, np.asarray(yaw_f), self._command, self._params
+                )
         self._step_count += 1
         return self._command.copy()
 
