@@ -1,19 +1,134 @@
-"""Every ``krl`` command the README shows is a valid command line of today's parser (so it cannot rot)."""
+"""Every ``krl`` command the README shows parses with today's parser, and runs, smoke-sized (so the README
+cannot rot).
+
+Each command runs in-process (``krl.cli.main``) with the options of its entry in :data:`SMOKE` appended:
+argparse keeps the last value of a repeated option, so ``krl collect --out data/base --targets 500`` plus
+``--targets 1`` collects one target. A README command without an entry fails the test, so a new README
+line cannot go untested. A command runs in its own copy of a workspace (:func:`workspace`) that holds the
+inputs the README's commands name, made small by krl's own commands: ``data/base`` (an expert dataset),
+``runs/kernel-base`` and ``runs/studies/variants/ind-seed150`` (one-epoch kernels), ``runs/agent-rp`` (a
+tiny agent), ``runs/eval`` (an evaluation for ``krl report``) and ``mine.toml`` (a one-waypoint course).
+"""
 
 from __future__ import annotations
 
+import contextlib
+import os
 import shlex
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
-from krl.cli import build_parser
+from krl.cli import build_parser, main
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
+RENDER, WINDOW = "render", "window"
+"""What a command needs beyond Python: offscreen rendering (libOSMesa), or a window (run under Xvfb)."""
+
+SMOKE: dict[str, tuple[str, str | None]] = {
+    # README command: (options appended to it, what it needs). An empty string: it is small already.
+    "krl demo": ("--course mine.toml --workers 1 --quiet", None),  # without rendering: no video, a note
+    "krl reproduce --quick --dry-run": ("", None),
+    "krl export --out onnx/ --policy rp": ("", None),
+    "krl terrains": ("", None),
+    "krl render --terrain seesaw --out seesaw.png": ("--width 64 --height 48 --settle 0", RENDER),
+    "krl view --controller agent --course stairs": ("--duration 0.5", WINDOW),
+    "krl bench sim --json": ("--steps 20 --repeats 1", None),
+    "krl bench mpc --json": ("--seconds 0.5", None),
+    # the smallest training measurement bench agent has is one 4000-step PPO rollout on every core
+    "krl bench agent --json": ("--num-envs 1 --steps 10 --repeats 1 --train-steps 1", None),
+    "krl expert run --targets 10 --seed 1 --json": ("--targets 1 --target-time-limit 1", None),
+    "krl expert run --command 0.5,0,0 --duration 8 --video walk.mp4": (
+        "--duration 2.1 --video-size 160x120",
+        RENDER,
+    ),
+    "krl expert plot all --out figures/": ("--quick --duration 2.1 --workers 1", None),
+    "krl collect --out data/base --targets 500": ("--out data/smoke --targets 1 --quiet", None),
+    "krl kernel train --data data/base --out runs/kernel-base": (
+        "--out runs/kernel-smoke --epochs 1 --threads 1 --no-tensorboard --quiet",
+        None,
+    ),
+    "krl kernel eval --json": ("--targets 1", None),
+    "krl kernel eval --model runs/kernel-base/kernel.npz --data data/base --validation --breakdown": (
+        "",
+        None,
+    ),
+    "krl kernel run --targets 10 --json": ("--targets 1 --target-time-limit 1", None),
+    "krl kernel run --model ext --ride-height 0.2 --command 0.3,0,0 --duration 8": ("--duration 2.2", None),
+    "krl kernel tune --data data/base --out runs/tune --trials 50": (
+        "--trials 1 --epochs 1 --threads 1 --quiet",
+        None,
+    ),
+    "krl kernel study data-size --data data/base": (
+        "--sizes 1 --seeds 150 --epochs 1 --walk-targets 1 --threads 1 --quiet",
+        None,
+    ),
+    "krl kernel run --model runs/studies/variants/ind-seed150/kernel.npz --gait walk --targets 5": (
+        "--targets 1 --target-time-limit 1",
+        None,
+    ),
+    "krl kernel figures all --out figures/kernel": ("--quick --workers 1", None),
+    "krl agent train --out runs/agent-rp --seed 150": ("--steps 768 --quiet", None),  # resumes the tiny one
+    "krl agent curves runs/agent-rp --out figures/agent": ("", None),
+    "krl agent info --policy runs/agent-rp/policy.npz": ("", None),
+    "krl agent run --targets 5 --json": ("--targets 1 --target-time-limit 1", None),
+    "krl agent run --policy runs/agent-rp/policy.npz --terrain heightfield --video agent.mp4": (
+        "--targets 1 --target-time-limit 0.3 --video-size 160x120",
+        RENDER,
+    ),
+    "krl render --course stairs --out stairs-course.png": ("--width 64 --height 48 --settle 0", RENDER),
+    "krl evaluate --controller expert --controller kernel --controller agent": (
+        "--course mine.toml --seeds 150 --workers 1 --quiet",
+        None,
+    ),
+    "krl evaluate --controller expert:stance=0.3 --course mine.toml --video videos/": (
+        "--workers 1 --quiet",
+        RENDER,
+    ),
+    "krl evaluate --controller kernel --push-sweep": (
+        "--magnitudes 250 --attempts 1 --workers 1 --quiet",
+        None,
+    ),
+    "krl report": ("", None),
+}
+
+MINE_TOML = """\
+format = 1
+name = "mine"
+description = "One waypoint 0.6 m ahead on flat ground (the README's smoke test)."
+time_limit = 6.0
+d_min = 0.5
+waypoints = [[0.6, 0.0]]
+starts = [[0.0, 0.0, 0.0]]
+
+[terrain]
+name = "flat"
+seed = 0
+"""
+
+TINY_AGENT = (
+    '{"ppo": {"rollout_steps": 256, "batch_size": 128, "n_epochs": 1, "shared": [16], "actor": [16], '
+    '"critic": [8]}, "num_envs": 2, "workers": 1, "total_steps": 512, "checkpoint_every": 256}'
+)
+
+WORKSPACE_COMMANDS = (
+    "collect --out data/base --targets 3 --targets-per-episode 1 --quiet",
+    "kernel train --data data/base --out runs/kernel-base --epochs 1 --threads 1 --no-tensorboard --quiet",
+    "kernel train --data data/base --variant ind --out runs/studies/variants/ind-seed150 --epochs 1 "
+    "--threads 1 --no-tensorboard --quiet",
+    "agent train --out runs/agent-rp --seed 150 --config agent-tiny.json --quiet",
+    "evaluate --controller kernel --course mine.toml --workers 1 --quiet",
+)
+"""The ``krl`` commands that make the workspace's inputs (after ``mine.toml`` and ``agent-tiny.json``)."""
+
 
 def readme_commands() -> list[str]:
-    """The ``krl …`` commands of the README's shell blocks (comments dropped, ``&&`` chains split)."""
+    """The ``krl …`` commands of the README's shell blocks, each once (comments dropped, ``&&`` chains
+    split)."""
     commands, in_block = [], False
     for line in README.read_text().splitlines():
         if line.startswith("```"):
@@ -24,7 +139,30 @@ def readme_commands() -> list[str]:
                 part = part.strip()
                 if part.startswith("krl "):
                     commands.append(part)
-    return commands
+    return list(dict.fromkeys(commands))
+
+
+def missing_need(need: str | None) -> str | None:
+    """Why a command needing ``need`` cannot run here (None: it can)."""
+    if need == RENDER:
+        from krl.sim.render import rendering_problem
+
+        return rendering_problem()
+    if need == WINDOW and shutil.which("xvfb-run") is None:
+        return "needs xvfb-run (apt-get install xvfb) for a window"
+    return None
+
+
+@pytest.fixture(scope="module")
+def workspace(tmp_path_factory) -> Path:
+    """A folder with the inputs the README's commands read (module docstring), made by krl's commands."""
+    folder = tmp_path_factory.mktemp("readme")
+    (folder / "mine.toml").write_text(MINE_TOML)
+    (folder / "agent-tiny.json").write_text(TINY_AGENT)
+    with contextlib.chdir(folder):
+        for command in WORKSPACE_COMMANDS:
+            assert main(shlex.split(command)) == 0, command
+    return folder
 
 
 def test_the_readme_shows_commands():
@@ -32,6 +170,36 @@ def test_the_readme_shows_commands():
     assert "krl demo" in commands and len(commands) > 30
 
 
+def test_every_readme_command_has_a_smoke_size():
+    commands = readme_commands()
+    assert [c for c in commands if c not in SMOKE] == [], "add each new README command to SMOKE"
+    assert [c for c in SMOKE if c not in commands] == [], "SMOKE names commands the README no longer shows"
+
+
 @pytest.mark.parametrize("command", readme_commands())
 def test_every_readme_command_parses(command):
     build_parser().parse_args(shlex.split(command)[1:])
+
+
+@pytest.mark.parametrize("command", readme_commands())
+def test_every_readme_command_runs(command, workspace, tmp_path, monkeypatch):
+    assert command in SMOKE, f"{command!r} has no smoke-size entry in SMOKE"
+    options, need = SMOKE[command]
+    problem = missing_need(need)
+    if problem is not None:
+        pytest.skip(problem)
+    cwd = tmp_path / "workspace"
+    shutil.copytree(workspace, cwd)
+    monkeypatch.chdir(cwd)
+    argv = shlex.split(command)[1:] + shlex.split(options)
+    if need == WINDOW:  # MuJoCo's viewer needs GLFW on a display: a virtual one
+        done = subprocess.run(
+            ["xvfb-run", "-a", "-s", "-screen 0 640x480x24", sys.executable, "-m", "krl.cli", *argv],
+            env={**os.environ, "MUJOCO_GL": "glfw"},
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert done.returncode == 0, done.stderr
+    else:
+        assert main(argv) == 0

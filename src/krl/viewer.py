@@ -171,9 +171,10 @@ def aim_camera(camera, model, view: CameraView = VIEW_CAMERA) -> None:
     camera.elevation = view.elevation
 
 
-def run_viewer(session: LiveSession) -> None:
-    """Open MuJoCo's viewer on the session and step it in real time until the window closes or Ctrl-C
-    (then KeyboardInterrupt, once the window is gone); print the session's messages as they come.
+def run_viewer(session: LiveSession, duration: float | None = None) -> None:
+    """Open MuJoCo's viewer on the session and step it in real time until the window closes, the
+    simulation reaches ``duration`` seconds (None: no end), or Ctrl-C (then KeyboardInterrupt, once the
+    window is gone); print the session's messages as they come.
 
     The viewer draws on a daemon thread, which is waited for after the window is asked to close: an
     interpreter that exits while that thread still tears down its OpenGL context dies by a segmentation
@@ -201,6 +202,8 @@ def run_viewer(session: LiveSession) -> None:
                 aim_camera(viewer.cam, session.sim.model)
             shown = 0
             while viewer.is_running() and not interrupted.is_set():
+                if duration is not None and session.sim.time >= duration:
+                    break
                 started = time.perf_counter()
                 session.step()
                 viewer.sync()

@@ -251,7 +251,31 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--duration", type=float, default=10.0, help="with --command: run length [s]")
     parser.add_argument("--video", help="write an MP4 of the run")
+    parser.add_argument(
+        "--video-size",
+        metavar="WIDTHxHEIGHT",
+        help=f"with --video: frame size [px] (default {video_size_default()})",
+    )
     parser.add_argument("--json", action="store_true", help="print JSON")
+
+
+def video_size_default() -> str:
+    """``--video-size``'s default: :class:`krl.sim.video.VideoRecorder`'s frame size, as ``640x480``."""
+    from krl.sim.video import VideoRecorder
+
+    return f"{default_of(VideoRecorder, 'width')}x{default_of(VideoRecorder, 'height')}"
+
+
+def parse_size(text: str, what: str) -> tuple[int, int]:
+    """``"320x240"`` -> ``(320, 240)``: two positive integers, else a :class:`CliError` naming ``what``."""
+    width, sep, height = text.lower().partition("x")
+    try:
+        size = (int(width), int(height))
+    except ValueError:
+        size = (0, 0)
+    if not sep or min(size) < 1:
+        raise CliError(f"{what} expects WIDTHxHEIGHT in pixels (e.g. 320x240), got {text!r}")
+    return size
 
 
 def run_controller(args: argparse.Namespace, controller, step_hook=None) -> dict[str, Any]:
@@ -266,12 +290,13 @@ def run_controller(args: argparse.Namespace, controller, step_hook=None) -> dict
 
     if args.command is None and not args.target and args.targets < 1:
         raise CliError(f"--targets must be >= 1, got {args.targets}")
+    size = parse_size(args.video_size or video_size_default(), "--video-size")
     sim = build_sim(args)
     recorder = None
     if args.video:
         from krl.sim.video import VideoRecorder
 
-        recorder = VideoRecorder(sim, args.video)
+        recorder = VideoRecorder(sim, args.video, width=size[0], height=size[1])
 
     def on_step(record) -> None:
         if step_hook is not None:

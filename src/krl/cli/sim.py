@@ -58,6 +58,8 @@ def cmd_render(args: argparse.Namespace) -> int:
 def cmd_view(args: argparse.Namespace) -> int:
     from krl.viewer import window_problem
 
+    if args.duration is not None and not args.duration > 0:
+        raise CliError(f"--duration must be > 0 s, got {args.duration:g}")
     problem = window_problem()
     if problem is not None:
         raise CliError(problem)
@@ -74,7 +76,7 @@ def cmd_view(args: argparse.Namespace) -> int:
         session = LiveSession(sim, controller, course.waypoints, course.starts[0], course.d_min)
     else:
         session = LiveSession(build_sim(args), controller)
-    run_viewer(session)
+    run_viewer(session, args.duration)
     return 0
 
 
@@ -122,6 +124,9 @@ def register(subparsers) -> None:
     )
     p.add_argument("--controller", help="expert, kernel, agent, ... as in krl evaluate (default: stand)")
     p.add_argument("--course", help="a course (name or file): its waypoints steer, from its first start")
+    p.add_argument(
+        "--duration", type=float, help="close the window after this many simulated seconds (default: never)"
+    )
     add_terrain_arguments(p)
     p.set_defaults(func=cmd_view)
 
