@@ -14,3 +14,25 @@ def test_demo_writes_its_plot_and_table(tmp_path, capsys):
     assert (out / "path.png").stat().st_size > 10_000
     table = (out / "metrics.md").read_text()
     assert "kernel-base" in table and "expert-stance0.2" in table
+
+
+def test_demo_says_there_will_be_no_video_before_the_walks(tmp_path, monkeypatch, capsys):
+    import krl.sim.render
+
+    problem = "offscreen rendering needs the OSMesa library (libOSMesa not found): apt-get install libosmesa6"
+    monkeypatch.setattr(krl.sim.render, "rendering_problem", lambda: problem)
+    said = []  # what stderr held when the walks would start (they are skipped: no walk runs)
+
+    def no_walks(*args, **kwargs):
+        said.append(capsys.readouterr().err)
+        return []
+
+    monkeypatch.setattr("krl.parallel.run_jobs", no_walks)
+    course = tmp_path / "mine.toml"
+    course.write_text(
+        'format = 1\nname = "mine"\ndescription = "one waypoint"\ntime_limit = 4.0\nd_min = 0.5\n'
+        'waypoints = [[0.6, 0.0]]\nstarts = [[0.0, 0.0, 0.0]]\n[terrain]\nname = "flat"\nseed = 0\n'
+    )
+    argv = ["demo", "--out", str(tmp_path / "demo"), "--course", str(course), "--workers", "1", "--quiet"]
+    assert main(argv) == 0
+    assert said == [f"krl demo: no video: {problem}\n"]  # on stderr, one line, before any walk ran

@@ -9,6 +9,7 @@ scoring. The controllers run on worker processes (:mod:`krl.parallel`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -87,8 +88,10 @@ def make_demo(
     video: bool = True,
     workers: int = 2,
     progress: bool = True,
+    say: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
-    """Run the demo (module docstring); returns the summary printed by ``krl demo``."""
+    """Run the demo (module docstring); returns the summary printed by ``krl demo``. ``say(note)`` hears
+    each note (a skipped controller, no video) before the walks start, which take minutes."""
     from krl.eval.courses import load_course
     from krl.parallel import run_jobs
 
@@ -104,6 +107,8 @@ def make_demo(
         if problem is not None:
             video = False
             notes.append(f"no video: {problem}")
+    for note in notes if say is not None else ():
+        say(note)
     out.mkdir(parents=True, exist_ok=True)
     film = str(out / f"{specs[0].label}-{loaded.name}.mp4") if video else None
     runs = [DemoRun(spec, loaded, start, film if index == 0 else None) for index, spec in enumerate(specs)]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from krl.cli.common import default_of, emit, given
 
@@ -15,6 +16,7 @@ def run_demo(args: argparse.Namespace) -> int:
         **given(course=args.course, start=args.start, workers=args.workers),
         video=not args.no_video,
         progress=not args.quiet,
+        say=None if args.json else lambda note: print(f"krl demo: {note}", file=sys.stderr, flush=True),
     )
     if args.json:
         emit(summary, True)
@@ -22,8 +24,6 @@ def run_demo(args: argparse.Namespace) -> int:
     for row in summary["runs"]:
         outcome = "success" if row["success"] else ("fell" if row["fell"] else "stopped")
         print(f"{row['controller']:>18}: {row['targets_reached']}/{row['targets']} waypoints, {outcome}")
-    for note in summary["notes"]:
-        print(note)
     for kind, path in summary["files"].items():
         print(f"{kind}: {path}")
     return 0
