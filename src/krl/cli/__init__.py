@@ -10,6 +10,7 @@ imports it.
 from __future__ import annotations
 
 import sys
+import warnings
 from collections.abc import Sequence
 
 from krl.cli import agent, data, demo, expert, export, kernel, reproduce, sim
@@ -42,6 +43,9 @@ def build_parser() -> Parser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``krl`` command; returns the exit status."""
+    # GLFW (MuJoCo's rendering backend when no other is chosen) reports a failure to start as Python
+    # warnings, several lines before the one-line error that says what to install
+    warnings.filterwarnings("ignore", module="glfw")
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
