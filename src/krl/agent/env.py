@@ -171,18 +171,16 @@ class ResidualEnvBatch:
         q_target = self.controller.joint_targets(actions)
         commands = self.controller.command.copy()
         sims = self.sims
-        for index, schedule in enumerate(self.push_schedules):
+        for sim, schedule in zip(sims.sims, self.push_schedules, strict=True):
             if schedule is not None:
-                push = schedule.due(sims.sims[index].time)
+                push = schedule.due(sim.time)
                 if push is not None:
-                    sims.sims[index].push(push)
+                    sim.push(push)
         states = sims.step(q_target)
         self.states = states
-        distance = np.empty(self.num_envs)
-        reached = np.zeros(self.num_envs, dtype=bool)
-        for index, task in enumerate(self.tasks):
-            progress = task.after_step(states.base_pos[index, :2])
-            distance[index], reached[index] = progress.distance, progress.reached
+        steps = [task.after_step(xy) for task, xy in zip(self.tasks, states.base_pos[:, :2], strict=True)]
+        distance = np.array([step.distance for step in steps])
+        reached = np.array([step.reached for step in steps], dtype=bool)
         terminated = states.fallen.copy()
         terms = reward_terms(self.reward, commands, states, distance, reached, terminated)
         rewards = np.sum(list(terms.values()), axis=0)

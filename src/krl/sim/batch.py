@@ -184,11 +184,13 @@ class SimBatch:
             sim._state = None  # read from its MjData when asked for
             qpos[index] = sim._qpos
             qvel[index] = sim._qvel
-            mujoco.mju_quat2Mat(rot[index], qpos[index, 3:7])
             sites[index] = sim._site_xpos[self._site_rows]
             sensors[index] = sim._sensordata[: self._sensor_count]
             torque[index] = sim._actuator_force
             com[index] = sim._trunk_com
+        for matrix, quat, unstable in zip(rot, qpos[:, 3:7], self.unstable, strict=True):
+            if not unstable:
+                mujoco.mju_quat2Mat(matrix, quat)
         foot_adr, trunk_adr = self._layout[1:]
         states = StateBatch(
             *state_fields(
