@@ -105,6 +105,7 @@ class SimBatch:
         ``sensordata`` it copies the first ``_sensor_count``: the feet's and the trunk's touch sensors."""
         self._foot_rows = first._foot_sites - low
         self._sensor_count = max(first._foot_sensor_adr.max(), first._trunk_sensor_adr) + 1
+        self._views = [self._readout_views(sim) for sim in self.sims]
         self.unstable = np.zeros(len(self.sims), dtype=bool)
         """Robots whose physics diverged in the last :meth:`step`."""
         self._states = StateBatch.from_states([sim.state for sim in self.sims])
@@ -117,11 +118,17 @@ class SimBatch:
         if layout != self._layout:
             raise ValueError("a simulator batch needs models with the A1's sites and sensors in one place")
 
+    def _readout_views(self, sim: A1Sim) -> tuple[np.ndarray, ...]:
+        """The views into ``sim``'s MjData a step reads: qpos, qvel, foot sites, sensors, torques, CoM."""
+        sites, sensors = sim._site_xpos[self._site_rows], sim._sensordata[: self._sensor_count]
+        return sim._qpos, sim._qvel, sites, sensors, sim._actuator_force, sim._trunk_com
+
     def replace(self, index: int, built: BuiltModel) -> None:
         """Put robot ``index`` on another model (a new terrain); reset it afterwards."""
         sim = A1Sim(built)
         self._check_layout(sim)
         self.sims[index] = sim
+        self._views[index] = self._readout_views(sim)
         self._reload(index)
 
     def reset(self, index: int, xy: tuple[float, float] | None = None, yaw: float = 0.0) -> RobotState:
@@ -164,12 +171,6 @@ class SimBatch:
         joint_vel = np.array([sim._qvel[6 : 6 + NUM_JOINTS] for sim in self.sims])  # [rad/s]
         bounds = np.empty((n, NUM_JOINTS, 2))  # the actuators' force ranges, (lower, upper) [N·m]
         _torque_bounds_into(joint_vel, bounds[..., 0], bounds[..., 1])
-        # what the robots' MjData hold after the step (zero where a robot diverged: its last state is kept)
-        qpos, qvel = np.zeros((n, 19)), np.zeros((n, 18))
-        rot = np.zeros((n, 9))
-        sites = np.zeros((n, self._site_rows.stop - self._site_rows.start, 3))
-        sensors = np.zeros((n, self._sensor_count))
-        torque, com = np.zeros((n, NUM_JOINTS)), np.zeros((n, 3))
         self.unstable[:] = False
         for index, (sim, q) in enumerate(zip(self.sims, q_target, strict=True)):
             np.multiply(sim._kp, q, out=sim._ctrl)
@@ -180,17 +181,19 @@ class SimBatch:
             except SimulationUnstableError:
                 self.unstable[index] = True
                 sim._state = previous.row(index)
-                continue
-            sim._state = None  # read from its MjData when asked for
-            qpos[index] = sim._qpos
-            qvel[index] = sim._qvel
-            sites[index] = sim._site_xpos[self._site_rows]
-            sensors[index] = sim._sensordata[: self._sensor_count]
-            torque[index] = sim._actuator_force
-            com[index] = sim._trunk_com
-        for matrix, quat, unstable in zip(rot, qpos[:, 3:7], self.unstable, strict=True):
-            if not unstable:
-                mujoco.mju_quat2Mat(matrix, quat)
+            else:
+                sim._state = None  # read from its MjData when asked for
+        # what the robots' MjData hold after the step (zero where a robot diverged: its last state is kept)
+        qpos, qvel, sites, sensors, torque, com = (
+            np.array(views) for views in zip(*self._views, strict=True)
+        )
+        diverged = np.flatnonzero(self.unstable)
+        if len(diverged):
+            for raw in (qpos, qvel, sites, sensors, torque, com):
+                raw[diverged] = 0.0
+        rot = np.empty((n, 9))
+        for matrix, quat in zip(rot, qpos[:, 3:7], strict=True):
+            mujoco.mju_quat2Mat(matrix, quat)
         foot_adr, trunk_adr = self._layout[1:]
         states = StateBatch(
             *state_fields(
@@ -205,7 +208,7 @@ class SimBatch:
                 com,
             )
         )
-        for index in np.flatnonzero(self.unstable):
+        for index in diverged:
             for name in _FIELD_NAMES:
                 getattr(states, name)[index] = getattr(previous, name)[index]
             states.fallen[index] = True
