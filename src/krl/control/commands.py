@@ -188,9 +188,10 @@ def _next_command(
     dist = np.hypot(delta[..., 0], delta[..., 1])
     theta = wrap_angle(np.arctan2(delta[..., 1], delta[..., 0]) - yaw)
     theta = np.where(dist > 0.0, theta, 0.0)
-    raw = np.stack(
-        np.broadcast_arrays(dist * np.cos(theta), dist * np.sin(theta), params.yaw_gain * theta), -1
-    )
+    parts = (dist * np.cos(theta), dist * np.sin(theta), params.yaw_gain * theta)
+    raw = np.empty((*np.broadcast_shapes(*(part.shape for part in parts)), 3))
+    for axis, part in enumerate(parts):
+        raw[..., axis] = part
     cmd = prev + np.clip(raw - prev, -params.rate_limit, params.rate_limit)
     return _limit(cmd, params)
 
@@ -303,7 +304,8 @@ class CommandGenerator:
         if self._target is None:
             self._distance = math.nan
         else:
-            self._distance = float(np.hypot(*(self._target - base)))
+            delta = self._target - base
+            self._distance = float(np.hypot(delta[0], delta[1]))
         if self._step_count % self._period == 0:
             if self._target is None or self.reached:
                 p = self._params
