@@ -87,6 +87,9 @@ if _FIELD_NAMES != tuple(f.name for f in fields(StateBatch)):  # pragma: no cove
 class SimBatch:
     """N simulators stepped together.
 
+    The batch keeps the robots' states (:attr:`states`): step and reset its simulators through
+    :meth:`step` and :meth:`reset` only (pushes may be scheduled on them directly).
+
     Args:
         models: one compiled model per robot (:func:`krl.sim.model.build_model`).
     """
