@@ -96,3 +96,12 @@ def test_bad_targets_are_refused():
         batch.step(np.zeros((3, 12)))
     with pytest.raises(ValueError, match="non-finite"):
         batch.step(np.full((2, 12), np.nan))
+
+
+def test_models_with_markers_before_the_robots_sites_are_read_out_alike():
+    models = [build_model("flat"), build_model("flat", markers=[(1.0, 0.0), (2.0, 1.0)])]
+    batch, singles = SimBatch(models), [A1Sim(built) for built in models]
+    assert singles[0]._foot_sites.tolist() != singles[1]._foot_sites.tolist()
+    for _ in range(20):
+        states = batch.step(np.tile(STANDING_JOINT_ANGLES, (2, 1)))
+        assert_same_states(states, [sim.step(STANDING_JOINT_ANGLES) for sim in singles])

@@ -84,6 +84,20 @@ if _FIELD_NAMES != tuple(f.name for f in fields(StateBatch)):  # pragma: no cove
     raise RuntimeError("StateBatch must list RobotState's fields in RobotState's order")
 
 
+def _readout_layout(sim: A1Sim) -> tuple[int, int, tuple[list[int], list[int], int]]:
+    """The first foot site and the first of the touch sensors in ``sim``'s model, and the feet's and the
+    sensors' places from there: ``(foot sites, foot sensors, trunk sensor)`` (other sites, e.g. a course's
+    markers, may come before the robot's)."""
+    site_start = int(sim._foot_sites.min())
+    sensor_start = int(min(sim._foot_sensor_adr.min(), sim._trunk_sensor_adr))
+    layout = (
+        [int(i) - site_start for i in sim._foot_sites],
+        [int(i) - sensor_start for i in sim._foot_sensor_adr],
+        sim._trunk_sensor_adr - sensor_start,
+    )
+    return site_start, sensor_start, layout
+
+
 class SimBatch:
     """N simulators stepped together.
 
@@ -98,16 +112,9 @@ class SimBatch:
         if not models:
             raise ValueError("a simulator batch needs at least one model")
         self.sims = [A1Sim(built) for built in models]
-        first = self.sims[0]
-        self._layout = (first._foot_sites.tolist(), first._foot_sensor_adr.tolist(), first._trunk_sensor_adr)
-        for sim in self.sims[1:]:
-            self._check_layout(sim)
-        low, high = first._foot_sites.min(), first._foot_sites.max() + 1
-        self._site_rows = slice(low, high)
-        """The rows of ``site_xpos`` a step copies out: the foot sites' (``_foot_rows`` within them). Of
-        ``sensordata`` it copies the first ``_sensor_count``: the feet's and the trunk's touch sensors."""
-        self._foot_rows = first._foot_sites - low
-        self._sensor_count = max(first._foot_sensor_adr.max(), first._trunk_sensor_adr) + 1
+        self._layout = _readout_layout(self.sims[0])[2]
+        """Where the readout finds the feet in the ``site_xpos`` rows it copies, and the feet's and the
+        trunk's touch sensors in the ``sensordata`` it copies: the same in every A1 model."""
         self._views = [self._readout_views(sim) for sim in self.sims]
         self.unstable = np.zeros(len(self.sims), dtype=bool)
         """Robots whose physics diverged in the last :meth:`step`."""
@@ -116,22 +123,21 @@ class SimBatch:
     def __len__(self) -> int:
         return len(self.sims)
 
-    def _check_layout(self, sim: A1Sim) -> None:
-        layout = (sim._foot_sites.tolist(), sim._foot_sensor_adr.tolist(), sim._trunk_sensor_adr)
-        if layout != self._layout:
-            raise ValueError("a simulator batch needs models with the A1's sites and sensors in one place")
-
     def _readout_views(self, sim: A1Sim) -> tuple[np.ndarray, ...]:
         """The views into ``sim``'s MjData a step reads: qpos, qvel, foot sites, sensors, torques, CoM."""
-        sites, sensors = sim._site_xpos[self._site_rows], sim._sensordata[: self._sensor_count]
+        site_start, sensor_start, layout = _readout_layout(sim)
+        if layout != self._layout:
+            raise ValueError("a simulator batch needs models whose A1 sites and sensors lie alike")
+        feet, foot_sensors, trunk_sensor = layout
+        sites = sim._site_xpos[site_start : site_start + max(feet) + 1]
+        sensors = sim._sensordata[sensor_start : sensor_start + max(*foot_sensors, trunk_sensor) + 1]
         return sim._qpos, sim._qvel, sites, sensors, sim._actuator_force, sim._trunk_com
 
     def replace(self, index: int, built: BuiltModel) -> None:
         """Put robot ``index`` on another model (a new terrain); reset it afterwards."""
         sim = A1Sim(built)
-        self._check_layout(sim)
-        self.sims[index] = sim
         self._views[index] = self._readout_views(sim)
+        self.sims[index] = sim
         self._reload(index)
 
     def reset(self, index: int, xy: tuple[float, float] | None = None, yaw: float = 0.0) -> RobotState:
@@ -155,8 +161,8 @@ class SimBatch:
         return self._states
 
     def step(self, q_target: np.ndarray) -> StateBatch:
-        """One control step of every robot with joint-angle targets [rad] (shape (N, 12)) and the robots'
-        PD gains (Table 4.2 unless a robot's were changed through its own :meth:`A1Sim.step`).
+        """One control step of every robot with joint-angle targets [rad] (shape (N, 12)) and the Table 4.2
+        PD.
 
         Each robot's physics is :meth:`krl.sim.robot.A1Sim.step`'s (its pushes included); the motor
         envelope and the readout are computed for all N at once. A robot whose physics diverges
@@ -197,16 +203,16 @@ class SimBatch:
         rot = np.empty((n, 9))
         for matrix, quat in zip(rot, qpos[:, 3:7], strict=True):
             mujoco.mju_quat2Mat(matrix, quat)
-        foot_adr, trunk_adr = self._layout[1:]
+        feet, foot_sensors, trunk_sensor = self._layout
         states = StateBatch(
             *state_fields(
                 np.array([sim._step for sim in self.sims]) * CONTROL_DT,
                 qpos,
                 qvel,
                 rot,
-                sites[:, self._foot_rows],
-                sensors[:, foot_adr],
-                sensors[:, trunk_adr],
+                sites[:, feet],
+                sensors[:, foot_sensors],
+                sensors[:, trunk_sensor],
                 torque,
                 com,
             )
