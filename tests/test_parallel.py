@@ -72,8 +72,11 @@ def test_bad_worker_count():
 
 # --- signals to a parent process ---------------------------------------------------------------------
 
+# The parent restores Python's SIGINT handler first: started from a background shell job or nohup (as some
+# CI runners do) it would inherit SIGINT ignored, which run_jobs rightly leaves ignored.
 PARENT = """
-import sys, time
+import signal, sys, time
+signal.signal(signal.SIGINT, signal.default_int_handler)
 from krl.parallel import Interrupted, run_jobs
 try:
     run_jobs(time.sleep, [60.0] * 4, workers=2)

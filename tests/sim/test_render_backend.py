@@ -55,3 +55,26 @@ def test_without_the_library_rendering_says_what_to_install():
         "krl: error: offscreen rendering needs the OSMesa library (libOSMesa not found): "
         "apt-get install libosmesa6 (with sudo when not root)"
     )
+
+
+def test_a_failed_gl_start_is_remembered_and_never_retried(monkeypatch):
+    """A second failed start of MuJoCo's GL backend aborts the interpreter, so it is not tried twice."""
+    import mujoco
+    import pytest
+
+    from krl.sim import render
+
+    starts = []
+
+    def failing_renderer(*args, **kwargs):
+        starts.append(args)
+        raise AttributeError("'NoneType' object has no attribute 'glGetError'")
+
+    monkeypatch.setattr(render, "_backend_failure", None)
+    monkeypatch.setattr(mujoco, "Renderer", failing_renderer)
+    model = mujoco.MjModel.from_xml_string("<mujoco><worldbody><body name='trunk'/></worldbody></mujoco>")
+    for _ in range(3):
+        with pytest.raises(render.RenderError, match="libosmesa6"):
+            render.FrameRenderer(model, 16, 16)
+    assert len(starts) == 1
+    assert render.rendering_problem() is not None and len(starts) == 1

@@ -75,6 +75,12 @@ class CameraView:
     """World point [m] to look at instead of tracking the trunk (a course overview)."""
 
 
+_backend_failure: str | None = None
+"""Why the GL backend failed to start in this process (one line), once it has: MuJoCo's GL backends abort
+the interpreter on a second failed start (libc++abi "recursive initialization", found with libOSMesa
+missing), so a failure is remembered and never retried."""
+
+
 class FrameRenderer:
     """Renders RGB frames of a model, with a camera tracking the robot's trunk.
 
@@ -85,17 +91,21 @@ class FrameRenderer:
     """
 
     def __init__(self, model, width: int = 640, height: int = 480, view: CameraView | None = None) -> None:
+        global _backend_failure
         ensure_offscreen_backend()
         import mujoco
 
         if width <= 0 or height <= 0:
             raise ValueError(f"image size must be positive, got {width}x{height}")
+        if _backend_failure is not None:
+            raise RenderError(_backend_failure)
         model.vis.global_.offwidth = max(int(model.vis.global_.offwidth), width)
         model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
         try:
             self._renderer = mujoco.Renderer(model, height=height, width=width)
         except Exception as error:  # the GL backends raise several unrelated types
-            raise RenderError(render_unavailable(error)) from error
+            _backend_failure = render_unavailable(error)
+            raise RenderError(_backend_failure) from error
         view = view or CameraView()
         self._camera = mujoco.MjvCamera()
         if view.lookat is None:
