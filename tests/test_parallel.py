@@ -182,6 +182,6 @@ def test_sigterm_stops_krl_evaluate_and_it_says_what_was_kept(tmp_path):
     parent, children = _start_parent(code, count=2, argv=argv)
     parent.terminate()
     _, err = parent.communicate(timeout=GONE_WITHIN + 10)
-    assert parent.returncode == 130 and "interrupted after 0 of 2 runs" in err, err
+    assert parent.returncode == 143 and "interrupted after 0 of 2 runs" in err, err  # 128 + SIGTERM
     _assert_gone(children)
     assert list((tmp_path / "out").rglob("start*.json")) == []

@@ -28,6 +28,7 @@ from typing import Any
 from krl.agent.config import AgentConfig, AgentConfigError
 from krl.agent.policy import file_sha256
 from krl.output import write_atomic
+from krl.parallel import Interrupted
 
 
 class TrainingError(RuntimeError):
@@ -35,7 +36,7 @@ class TrainingError(RuntimeError):
 
 
 def _terminate(signum: int, frame: object) -> None:
-    raise KeyboardInterrupt(signal.Signals(signum).name)
+    raise Interrupted(signum)
 
 
 class LearningRate:

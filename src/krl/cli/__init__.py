@@ -15,7 +15,7 @@ from collections.abc import Sequence
 
 from krl.cli import agent, data, demo, expert, export, kernel, reproduce, sim
 from krl.cli import eval as evaluation
-from krl.cli.common import CliError, Parser
+from krl.cli.common import CliError, Parser, interrupted_status
 
 EXIT_USAGE = 2
 
@@ -59,9 +59,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (CliError, ValueError, RenderError, SimulationUnstableError, EvaluationError, OSError) as error:
         print(f"krl: error: {error}", file=sys.stderr)
         return EXIT_USAGE
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as stop:
         print("krl: interrupted", file=sys.stderr)
-        return 130
+        return interrupted_status(stop)
 
 
 __all__ = ["CliError", "build_parser", "main"]

@@ -14,6 +14,7 @@ import inspect
 import json
 import math
 import re
+import signal
 import sys
 from collections.abc import Sequence
 from typing import Any
@@ -63,6 +64,14 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message: str):
         self.exit(2, f"{self.prog}: error: {message} (see `{self.prog} --help`)\n")
+
+
+def interrupted_status(stop: KeyboardInterrupt) -> int:
+    """Exit status of a command stopped by a signal: 128 + its number (130 for Ctrl-C, 143 for SIGTERM).
+
+    :class:`krl.parallel.Interrupted` carries the signal; a plain ``KeyboardInterrupt`` is Ctrl-C.
+    """
+    return 128 + int(getattr(stop, "signum", signal.SIGINT))
 
 
 def json_text(value: Any, **options: Any) -> str:

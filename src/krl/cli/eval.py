@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from krl.cli.common import default_of, emit, given, parse_ints
+from krl.cli.common import default_of, emit, given, interrupted_status, parse_ints
 from krl.eval.courses import SHIPPED_COURSES, THESIS_COURSES
 
 
@@ -137,13 +137,13 @@ def run_evaluate(args: argparse.Namespace) -> int:
 
         try:
             records = evaluate.execute(tasks, out, args.workers, on_done, remember_command)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as stop:
             done = counts["ran"] + counts["stored"]
             print(
                 f"krl: interrupted after {done} of {len(tasks)} runs; re-run the command to finish",
                 file=sys.stderr,
             )
-            return 130
+            return interrupted_status(stop)
     summary: dict[str, Any] = {"results": str(out), "runs": len(tasks), **counts, "controllers": {}}
     for spec in specs:
         mine = [r for t, r in zip(tasks, records, strict=True) if t.controller == spec]
