@@ -13,7 +13,6 @@ tiny agent), ``runs/eval`` (an evaluation for ``krl report``) and ``mine.toml`` 
 from __future__ import annotations
 
 import contextlib
-import functools
 import os
 import shlex
 import shutil
@@ -24,6 +23,7 @@ from pathlib import Path
 import pytest
 
 from krl.cli import build_parser, main
+from krl.sim.render import rendering_problem
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -143,19 +143,10 @@ def readme_commands() -> list[str]:
     return list(dict.fromkeys(commands))
 
 
-@functools.cache
-def rendering_problem() -> str | None:
-    """:func:`krl.sim.render.rendering_problem`, asked once, in a process of its own: without a GL library,
-    a second failed attempt to start a renderer in one process aborts it (MuJoCo's GLFW backend)."""
-    code = "from krl.sim.render import rendering_problem; print(rendering_problem() or '')"
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    return done.stdout.strip() or None
-
-
 def missing_need(need: str | None) -> str | None:
     """Why a command needing ``need`` cannot run here (None: it can)."""
     if need == RENDER:
-        return rendering_problem()
+        return rendering_problem()  # a failed GL start is remembered, so asking again is safe
     if need == WINDOW and shutil.which("xvfb-run") is None:
         return "needs xvfb-run (apt-get install xvfb) for a window"
     return None
@@ -199,7 +190,6 @@ def test_every_readme_command_runs(command, workspace, tmp_path, monkeypatch):
     cwd = tmp_path / "workspace"
     shutil.copytree(workspace, cwd)
     monkeypatch.chdir(cwd)
-    monkeypatch.setattr("krl.sim.render.rendering_problem", rendering_problem)  # krl demo asks it
     argv = shlex.split(command)[1:] + shlex.split(options)
     if need == WINDOW:  # MuJoCo's viewer needs GLFW on a display: a virtual one
         done = subprocess.run(

@@ -78,3 +78,17 @@ def test_a_failed_gl_start_is_remembered_and_never_retried(monkeypatch):
             render.FrameRenderer(model, 16, 16)
     assert len(starts) == 1
     assert render.rendering_problem() is not None and len(starts) == 1
+
+
+def test_asking_again_after_a_failed_gl_start_does_not_abort_the_interpreter():
+    """Found by a fresh clone without libosmesa6: a second failed start of MuJoCo's GLFW backend aborted
+    the process (libc++abi "recursive initialization", exit 134). GLFW without a display fails to start."""
+    environment = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    environment["MUJOCO_GL"] = "glfw"
+    code = (
+        "from krl.sim.render import rendering_problem\n"
+        "print(sum(rendering_problem() is not None for _ in range(3)))\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], env=environment, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "3"
