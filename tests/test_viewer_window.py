@@ -11,8 +11,9 @@ import textwrap
 import pytest
 
 from krl.sim.model import build_model
+from krl.sim.render import aim_camera
 from krl.sim.robot import A1Sim
-from krl.viewer import VIEW_CAMERA, aim_camera
+from krl.viewer import VIEW_CAMERA
 
 
 def test_the_camera_tracks_the_trunk():
@@ -20,7 +21,7 @@ def test_the_camera_tracks_the_trunk():
 
     model = A1Sim(build_model("flat")).model
     camera = mujoco.MjvCamera()
-    aim_camera(camera, model)
+    aim_camera(camera, model, VIEW_CAMERA)
     assert camera.type == mujoco.mjtCamera.mjCAMERA_TRACKING
     assert camera.trackbodyid == model.body("trunk").id
     assert (camera.distance, camera.azimuth, camera.elevation) == (

@@ -25,7 +25,7 @@ from krl.control.commands import CommandParams
 from krl.control.types import JointCommand
 from krl.robots.a1.constants import STANDING_JOINT_ANGLES
 from krl.sim.pushes import scripted_push
-from krl.sim.render import CameraView
+from krl.sim.render import CameraView, aim_camera
 from krl.task.waypoints import WaypointTask
 from krl.timing import CONTROL_DT
 
@@ -160,17 +160,6 @@ def window_problem() -> str | None:
     return None
 
 
-def aim_camera(camera, model, view: CameraView = VIEW_CAMERA) -> None:
-    """Point a ``mujoco.MjvCamera`` at the trunk, tracking it, from ``view``'s distance and angles."""
-    import mujoco
-
-    camera.type = mujoco.mjtCamera.mjCAMERA_TRACKING
-    camera.trackbodyid = model.body("trunk").id
-    camera.distance = view.distance
-    camera.azimuth = view.azimuth
-    camera.elevation = view.elevation
-
-
 def run_viewer(session: LiveSession, duration: float | None = None) -> None:
     """Open MuJoCo's viewer on the session and step it in real time until the window closes, the
     simulation reaches ``duration`` seconds (None: no end), or Ctrl-C (then KeyboardInterrupt, once the
@@ -199,7 +188,7 @@ def run_viewer(session: LiveSession, duration: float | None = None) -> None:
         ) as viewer:
             drawing = set(threading.enumerate()) - before
             with viewer.lock():
-                aim_camera(viewer.cam, session.sim.model)
+                aim_camera(viewer.cam, session.sim.model, VIEW_CAMERA)
             shown = 0
             while viewer.is_running() and not interrupted.is_set():
                 if duration is not None and session.sim.time >= duration:

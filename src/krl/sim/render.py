@@ -75,6 +75,22 @@ class CameraView:
     """World point [m] to look at instead of tracking the trunk (a course overview)."""
 
 
+def aim_camera(camera, model, view: CameraView) -> None:
+    """Set a ``mujoco.MjvCamera`` as ``view`` says: tracking the trunk of ``model``, or looking at
+    ``view.lookat``, from its distance and angles (offscreen frames and ``krl view``'s window)."""
+    import mujoco
+
+    if view.lookat is None:
+        camera.type = mujoco.mjtCamera.mjCAMERA_TRACKING
+        camera.trackbodyid = model.body("trunk").id
+    else:
+        camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+        camera.lookat[:] = view.lookat
+    camera.distance = view.distance
+    camera.azimuth = view.azimuth
+    camera.elevation = view.elevation
+
+
 _backend_failure: str | None = None
 """Why the GL backend failed to start in this process (one line), once it has: MuJoCo's GL backends abort
 the interpreter on a second failed start (libc++abi "recursive initialization", found with libOSMesa
@@ -106,17 +122,8 @@ class FrameRenderer:
         except Exception as error:  # the GL backends raise several unrelated types
             _backend_failure = render_unavailable(error)
             raise RenderError(_backend_failure) from error
-        view = view or CameraView()
         self._camera = mujoco.MjvCamera()
-        if view.lookat is None:
-            self._camera.type = mujoco.mjtCamera.mjCAMERA_TRACKING
-            self._camera.trackbodyid = model.body("trunk").id
-        else:
-            self._camera.type = mujoco.mjtCamera.mjCAMERA_FREE
-            self._camera.lookat[:] = view.lookat
-        self._camera.distance = view.distance
-        self._camera.azimuth = view.azimuth
-        self._camera.elevation = view.elevation
+        aim_camera(self._camera, model, view or CameraView())
 
     def render(self, data) -> np.ndarray:
         """RGB image of the current state. Shape: (height, width, 3), uint8."""
