@@ -134,8 +134,11 @@ def _run_pool(
                 deliver(futures.pop(future), future.result())
     except BaseException:
         with _signals_ignored():
-            pool.shutdown(wait=False, cancel_futures=True)
             _stop([child for child in multiprocessing.active_children() if child not in before])
+            # The pool's manager thread reaps the dead workers too; joining it (shutdown waits for it)
+            # makes sure it has recorded every exit status, or a worker it reaped first would still
+            # look alive to multiprocessing.active_children().
+            pool.shutdown(wait=True, cancel_futures=True)
         raise
     pool.shutdown()
 
