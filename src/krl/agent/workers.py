@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 from typing import Any
 
 import numpy as np
@@ -99,27 +100,42 @@ class ProcessVecEnv(VecEnv):
             self._processes.append(process)
         self._closed = False
 
+    def _lost(self, worker: int) -> WorkerError:
+        process = self._processes[worker]
+        process.join(timeout=1.0)
+        code = process.exitcode
+        how = "is still running" if code is None else f"exit code {code}"
+        if code is not None and code < 0:
+            how = f"killed by {signal.Signals(-code).name}"
+        return WorkerError(f"environment worker {worker} exited unexpectedly ({how})")
+
+    def _send(self, worker: int, message: tuple[str, Any]) -> None:
+        try:
+            self._connections[worker].send(message)
+        except OSError:  # BrokenPipeError, ConnectionResetError: the worker is gone
+            raise self._lost(worker) from None
+
     def _gather(self) -> list[Any]:
         results = []
-        for connection in self._connections:
+        for worker, connection in enumerate(self._connections):
             try:
                 result = connection.recv()
-            except EOFError:
-                raise WorkerError("an environment worker exited unexpectedly") from None
+            except (EOFError, OSError):
+                raise self._lost(worker) from None
             if isinstance(result, tuple) and len(result) == 2 and result[0] == "error":
-                raise WorkerError(f"environment worker failed: {result[1]}")
+                raise WorkerError(f"environment worker {worker} failed: {result[1]}")
             results.append(result)
         return results
 
     def reset(self) -> np.ndarray:
-        for connection in self._connections:
-            connection.send(("reset", None))
+        for worker in range(len(self._connections)):
+            self._send(worker, ("reset", None))
         return np.concatenate(self._gather())
 
     def step_async(self, actions: np.ndarray) -> None:
         actions = np.asarray(actions)
-        for k, connection in enumerate(self._connections):
-            connection.send(("step", actions[k * self.per_worker : (k + 1) * self.per_worker]))
+        for k in range(len(self._connections)):
+            self._send(k, ("step", actions[k * self.per_worker : (k + 1) * self.per_worker]))
 
     def step_wait(self):
         results = self._gather()
@@ -131,8 +147,8 @@ class ProcessVecEnv(VecEnv):
 
     def seed(self, seed: int | None = None):
         base = 0 if seed is None else seed
-        for k, connection in enumerate(self._connections):
-            connection.send(("seed", base + k * self.per_worker))
+        for k in range(len(self._connections)):
+            self._send(k, ("seed", base + k * self.per_worker))
         return [s for seeds in self._gather() for s in seeds]
 
     def close(self) -> None:

@@ -20,6 +20,7 @@ def run_train(args: argparse.Namespace) -> int:
 
     from krl.agent.config import AgentConfig
     from krl.agent.train import train
+    from krl.agent.workers import WorkerError
 
     config = _config(args)
     if args.workers is not None or args.num_envs is not None:
@@ -29,7 +30,10 @@ def run_train(args: argparse.Namespace) -> int:
             workers=base.workers if args.workers is None else args.workers,
             num_envs=base.num_envs if args.num_envs is None else args.num_envs,
         )
-    summary = train(args.out, config, args.seed, args.steps, progress=not args.quiet)
+    try:
+        summary = train(args.out, config, args.seed, args.steps, progress=not args.quiet)
+    except WorkerError as error:
+        raise CliError(f"{error}; the same command resumes from the last checkpoint in {args.out}") from None
     emit(summary, args.json)
     return 0
 
