@@ -19,6 +19,12 @@ def test_agent_run_and_info_with_a_policy_file(tmp_path, capsys):
     info = json.loads(capsys.readouterr().out)
     assert [row["name"] for row in info["observation"]][:2] == ["base_lin_vel", "base_ang_vel"]
     assert info["observation"][-1] == {"name": "foot_contact", "slice": "50:54", "unit": "1"}
+    assert info["policy"] == str(path)
+
+
+def test_a_shipped_policy_is_named_the_same_on_every_machine(capsys):
+    assert main(["agent", "info", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["policy"] == "krl/agent/policies/agent-rp.npz"
 
 
 def test_agent_errors_are_one_line(tmp_path, capsys):

@@ -56,13 +56,25 @@ def _policy(args: argparse.Namespace):
     return path, load_policy(path)
 
 
+def _shown(path: Path) -> str:
+    """A policy file as output names it: a shipped one relative to the krl package (``krl/agent/...``, the
+    same on every machine), any other as given."""
+    import krl
+
+    package = Path(krl.__file__).resolve().parent
+    try:
+        return f"krl/{Path(path).resolve().relative_to(package).as_posix()}"
+    except ValueError:
+        return str(path)
+
+
 def run_run(args: argparse.Namespace) -> int:
     from krl.agent.controller import AgentController
 
     path, policy = _policy(args)
     controller = AgentController(policy)
     summary = run_controller(args, controller)
-    summary["policy"] = str(path)
+    summary["policy"] = _shown(path)
     summary["kernel"] = policy.config.residual.kernel
     emit(summary, args.json)
     return 0
@@ -74,7 +86,7 @@ def run_info(args: argparse.Namespace) -> int:
     path, policy = _policy(args)
     emit(
         {
-            "policy": str(path),
+            "policy": _shown(path),
             "kernel": policy.config.residual.kernel,
             "kernel_sha256": policy.metadata.get("kernel_sha256"),
             "training": policy.metadata.get("training"),
