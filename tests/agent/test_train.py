@@ -48,6 +48,33 @@ def test_a_run_folder_refuses_another_config_or_seed(tmp_path, small_config):
         train(out, seed=2, total_steps=512, progress=False)
 
 
+def test_a_run_can_start_from_another_runs_checkpoint(tmp_path, small_config):
+    first = tmp_path / "first"
+    train(first, small_config, seed=1, total_steps=256, progress=False, log=lambda _: None)
+    # fine-tuning under other pushes; a zero learning rate keeps the weights it started from
+    harder = replace(
+        small_config,
+        env=replace(small_config.env, push_magnitude=(100.0, 500.0)),
+        ppo=replace(small_config.ppo, learning_rate=0.0),
+    )
+    second = tmp_path / "second"
+    messages: list[str] = []
+    train(second, harder, seed=2, total_steps=256, progress=False, log=messages.append, init_from=first)
+    assert messages == [f"starting {second} from {first} (256 env steps)"]
+    start = json.loads((second / "run.json").read_text())["initialized_from"]
+    assert (start["run"], start["checkpoint"], start["env_steps"]) == (str(first), "00000000256", 256)
+    theirs, mine = load_policy(first / "policy.npz"), load_policy(second / "policy.npz")
+    assert mine.metadata["training"]["initialized_from"]["env_steps"] == 256
+    for (w_theirs, b_theirs), (w_mine, b_mine) in zip(theirs.layers, mine.layers, strict=True):
+        assert (w_theirs == w_mine).all() and (b_theirs == b_mine).all()
+    other = replace(small_config, observation=replace(small_config.observation, features=("joint_pos",)))
+    with pytest.raises(TrainingError, match=r"its observation is .*, this run's is") as caught:
+        train(tmp_path / "third", other, total_steps=256, progress=False, init_from=first)
+    assert "\n" not in str(caught.value) and not (tmp_path / "third").exists()
+    with pytest.raises(TrainingError, match="not a run folder"):
+        train(tmp_path / "fourth", small_config, total_steps=256, progress=False, init_from=tmp_path / "none")
+
+
 def test_a_corrupt_checkpoint_is_a_one_line_error(tmp_path, small_config):
     out = tmp_path / "run"
     train(out, small_config, seed=1, total_steps=256, progress=False, log=lambda _: None)

@@ -121,6 +121,11 @@ class TrainingCallback(BaseCallback):
                 "seed": self.run["seed"],
                 "workers": self.config.workers,
                 "num_envs": self.config.num_envs,
+                **(
+                    {"initialized_from": self.run["initialized_from"]}
+                    if "initialized_from" in self.run
+                    else {}
+                ),
             },
             "software": self.software,
         }

@@ -11,6 +11,11 @@
 | ``progress.csv``, ``events.*`` | the training log, CSV and TensorBoard (:mod:`krl.agent.callbacks`) |
 | ``progress.<steps>.csv`` | the CSV log before a resumption at ``<steps>`` (SB3 starts its CSV afresh) |
 
+``train(out, config, seed, init_from=RUN)`` starts a new run from another run's newest checkpoint (its
+policy, value function, optimiser state and observation normaliser): fine-tuning, for instance under
+another training distribution. The two must share the kernel, the residual path, the observation and the
+network; ``run.json`` and the exported policy's metadata record the run it started from and its env steps.
+
 Calling it again on the same folder resumes from the newest checkpoint (an interruption loses at most
 ``checkpoint_every`` env steps). The environments restart from fresh episodes on resumption, seeded from
 the run's seed and the checkpoint's step count, so a resumed run is reproducible but not bit-identical to
@@ -95,7 +100,9 @@ def _latest_checkpoint(out: Path) -> Path | None:
     return path
 
 
-def _open_run(out: Path, config: AgentConfig | None, seed: int | None) -> tuple[AgentConfig, dict[str, Any]]:
+def _open_run(
+    out: Path, config: AgentConfig | None, seed: int | None, init_from: Path | None = None
+) -> tuple[AgentConfig, dict[str, Any]]:
     """Read (resuming) or create the run folder; returns its config and run record."""
     config_path, run_path = out / "config.json", out / "run.json"
     if config_path.is_file():
@@ -110,6 +117,9 @@ def _open_run(out: Path, config: AgentConfig | None, seed: int | None) -> tuple[
             )
         if seed is not None and seed != run["seed"]:
             raise TrainingError(f"run {out} was started with seed {run['seed']}, not {seed}")
+        started_from = run.get("initialized_from", {}).get("run")
+        if init_from is not None and str(init_from) != started_from:
+            raise TrainingError(f"run {out} was not started from {init_from}; drop --init-from to resume it")
         return stored, run
     config = config or AgentConfig()
     from krl.kernel.registry import resolve_model
@@ -126,10 +136,60 @@ def _open_run(out: Path, config: AgentConfig | None, seed: int | None) -> tuple[
         "kernel_sha256": file_sha256(kernel_path),
         "software": _software(),
     }
+    if init_from is not None:
+        run["initialized_from"] = _initial_run(init_from, config, run["kernel_sha256"])
     out.mkdir(parents=True, exist_ok=True)
     write_atomic(run_path, (json.dumps(run, indent=2) + "\n").encode())
     write_atomic(config_path, (json.dumps(config.to_json(), indent=2) + "\n").encode())
     return config, run
+
+
+def _initial_run(source: Path, config: AgentConfig, kernel_sha256: str) -> dict[str, Any]:
+    """What a run started from ``source`` records of it; refuses a source the new run cannot start from."""
+    checkpoint = _latest_checkpoint(source)
+    if checkpoint is None or not (source / "config.json").is_file():
+        raise TrainingError(f"--init-from {source}: not a run folder of krl agent train with a checkpoint")
+    try:
+        theirs = AgentConfig.from_json(json.loads((source / "config.json").read_text()), str(source))
+        their_run = json.loads((source / "run.json").read_text())
+        state = json.loads((checkpoint / "state.json").read_text())
+    except (OSError, ValueError, AgentConfigError) as error:
+        raise TrainingError(f"--init-from {source}: {error}") from None
+    network = ("shared", "actor", "critic", "log_std_init", "normalize_observations")
+    for name, mine, other in (
+        ("residual", config.residual, theirs.residual),
+        ("observation", config.observation, theirs.observation),
+        *((f"ppo.{key}", getattr(config.ppo, key), getattr(theirs.ppo, key)) for key in network),
+    ):
+        if mine != other:
+            raise TrainingError(f"--init-from {source}: its {name} is {other!r}, this run's is {mine!r}")
+    if their_run.get("kernel_sha256") != kernel_sha256:
+        raise TrainingError(f"--init-from {source}: it was trained with another kernel file")
+    return {
+        "run": str(source),
+        "checkpoint": checkpoint.name,
+        "env_steps": int(state["num_timesteps"]),
+        "wall_seconds": float(state["wall_seconds"]),
+        "seed": their_run.get("seed"),
+    }
+
+
+def _start_from(model, env, source: Path) -> None:
+    """Load a run's newest checkpoint into a new run's ``model`` (weights and optimiser state) and its
+    normaliser ``env`` (running statistics)."""
+    import pickle
+
+    checkpoint = _latest_checkpoint(source)
+    try:
+        model.set_parameters(str(checkpoint / "model.zip"), exact_match=True, device="cpu")
+        normaliser = checkpoint / "normaliser.pkl"
+        if normaliser.is_file():
+            with normaliser.open("rb") as file:
+                theirs = pickle.load(file)
+            env.obs_rms, env.ret_rms = theirs.obs_rms, theirs.ret_rms
+    except Exception as error:  # SB3 and pickle raise many types for a damaged file
+        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise TrainingError(f"checkpoint {checkpoint} is corrupt: {first}") from None
 
 
 def _run_kernel(out: Path, config: AgentConfig, run: dict[str, Any]) -> str:
@@ -153,6 +213,7 @@ def train(
     total_steps: int | None = None,
     progress: bool = True,
     log=print,
+    init_from: str | Path | None = None,
 ) -> dict[str, Any]:
     """Train (or resume) a residual agent in ``out``; returns a summary (steps, wall time, policy path).
 
@@ -163,6 +224,7 @@ def train(
         total_steps: env steps to train to (default ``config.total_steps``); may extend a finished run.
         progress: show a progress bar.
         log: where one-line messages go.
+        init_from: a run folder whose newest checkpoint a new run starts from (module docstring).
     """
     import torch
     from stable_baselines3 import PPO
@@ -174,7 +236,8 @@ def train(
     from krl.agent.workers import ProcessVecEnv
 
     out = Path(out)
-    config, run = _open_run(out, config, seed)
+    source = None if init_from is None else Path(init_from)
+    config, run = _open_run(out, config, seed, source)
     seed = run["seed"]
     total = int(total_steps or config.total_steps)
     checkpoint = _latest_checkpoint(out)
@@ -218,6 +281,10 @@ def train(
                 device="cpu",
                 verbose=0,
             )
+            start = run.get("initialized_from")
+            if start is not None:
+                _start_from(model, env, Path(start["run"]))
+                log(f"starting {out} from {start['run']} ({start['env_steps']} env steps)")
         else:
             try:
                 env = VecNormalize.load(str(checkpoint / "normaliser.pkl"), venv)

@@ -31,7 +31,9 @@ def run_train(args: argparse.Namespace) -> int:
             num_envs=base.num_envs if args.num_envs is None else args.num_envs,
         )
     try:
-        summary = train(args.out, config, args.seed, args.steps, progress=not args.quiet)
+        summary = train(
+            args.out, config, args.seed, args.steps, progress=not args.quiet, init_from=args.init_from
+        )
     except WorkerError as error:
         raise CliError(f"{error}; the same command resumes from the last checkpoint in {args.out}") from None
     emit(summary, args.json)
@@ -123,6 +125,10 @@ def register(subparsers) -> None:
     p.add_argument("--steps", type=int, help="env steps to train to (default: the config's total_steps)")
     p.add_argument("--workers", type=int, help="environment processes (default: the config's)")
     p.add_argument("--num-envs", type=int, help="environments per process (default: the config's)")
+    p.add_argument(
+        "--init-from",
+        help="a new run starts from this run folder's newest checkpoint (fine-tuning; docs/agent.md)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run_train)
