@@ -40,7 +40,7 @@ SMOKE: dict[str, tuple[str, str | None]] = {
     "krl view --controller agent --course stairs": ("--duration 0.5", WINDOW),
     "krl bench sim --json": ("--steps 20 --repeats 1", None),
     "krl bench mpc --json": ("--seconds 0.5", None),
-    # the smallest training measurement bench agent has is one 4000-step PPO rollout on every core
+    # the smallest training measurement bench agent has is three 4000-step PPO rollouts on every core
     "krl bench agent --json": ("--num-envs 1 --steps 10 --repeats 1 --train-steps 1", None),
     "krl expert run --targets 10 --seed 1 --json": ("--targets 1 --target-time-limit 1", None),
     "krl expert run --command 0.5,0,0 --duration 8 --video walk.mp4": (

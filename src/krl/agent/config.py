@@ -207,6 +207,10 @@ class PPOConfig:
         return self.learning_rate * (1.0 - min(steps, self.lr_decay_stop) / self.lr_decay_horizon)
 
 
+DEFAULT_NUM_ENVS: int = 16
+"""Environments per worker process unless a config says otherwise."""
+
+
 @dataclass(frozen=True)
 class AgentConfig:
     """Everything that defines a residual agent and its training."""
@@ -215,8 +219,8 @@ class AgentConfig:
     env: EnvConfig = field(default_factory=EnvConfig)
     observation: ObservationConfig = field(default_factory=ObservationConfig)
     ppo: PPOConfig = field(default_factory=PPOConfig)
-    num_envs: int = 16
-    """Environments per worker process (ours)."""
+    num_envs: int = DEFAULT_NUM_ENVS
+    """Environments per worker process (ours; benchmarks/README.md measured the choice)."""
     workers: int = 2
     """Worker processes stepping environments (one per core)."""
     total_steps: int = 20_000_000
