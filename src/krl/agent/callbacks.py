@@ -17,6 +17,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from krl.agent.config import AgentConfig
 from krl.agent.policy import Policy
 from krl.output import write_atomic
+from krl.progress import progress_bar
 
 
 class TrainingCallback(BaseCallback):
@@ -41,8 +42,11 @@ class TrainingCallback(BaseCallback):
         run: dict[str, Any],
         wall_before: float,
         software: dict[str, str],
+        progress: bool = False,
     ) -> None:
         super().__init__()
+        self.bar = progress_bar(progress)
+        self.bar_task = None
         self.out = out
         self.config = config
         self.run = run
@@ -60,11 +64,26 @@ class TrainingCallback(BaseCallback):
     def _on_training_start(self) -> None:
         self.last_steps = self.num_timesteps
         self.last_checkpoint = self.num_timesteps // self.config.checkpoint_every
+        # PPO stops at the end of the rollout that reaches the goal, so the bar counts whole rollouts
+        rollout = self.model.n_steps * self.model.n_envs
+        remaining = max(0, self.locals["total_timesteps"] - self.num_timesteps)
+        goal = self.num_timesteps + -(-remaining // rollout) * rollout
+        self.bar.start()
+        self.bar_task = self.bar.add_task("env steps", total=goal, completed=self.num_timesteps)
+
+    def _on_training_end(self) -> None:
+        self.close_progress()
+
+    def close_progress(self) -> None:
+        """Take the progress bar off the terminal (also after an interruption)."""
+        self.bar.stop()
 
     def _on_rollout_start(self) -> None:
         torch.set_num_threads(1)
 
     def _on_step(self) -> bool:
+        if self.bar_task is not None:
+            self.bar.update(self.bar_task, completed=self.num_timesteps)
         for info in self.locals["infos"]:
             episode = info.get("episode")
             if episode is not None:

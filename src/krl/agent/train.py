@@ -306,7 +306,7 @@ def train(
         if checkpoint is not None and log_path.is_file():  # SB3's CSV logger starts its file afresh
             os.replace(log_path, out / f"progress.{done_steps:011d}.csv")
         model.set_logger(configure(str(out), ["csv", "tensorboard"]))
-        callback = TrainingCallback(out, config, run, wall_before, _software())
+        callback = TrainingCallback(out, config, run, wall_before, _software(), progress)
         previous = signal.signal(signal.SIGTERM, _terminate)
         try:
             with threadpool_limits(1, user_api="blas"):
@@ -314,13 +314,13 @@ def train(
                     total - done_steps,
                     callback=callback,
                     reset_num_timesteps=checkpoint is None,
-                    progress_bar=progress,
                 )
         except KeyboardInterrupt:  # Ctrl-C or SIGTERM: keep what was learnt, then stop
             path = callback.save_checkpoint(model)
             log(f"interrupted: saved {path.name} ({model.num_timesteps} env steps); run again to resume")
             raise
         finally:
+            callback.close_progress()
             signal.signal(signal.SIGTERM, previous)
         callback.save_checkpoint(model, final=True)
         return {
