@@ -118,7 +118,9 @@ def _open_run(
         if seed is not None and seed != run["seed"]:
             raise TrainingError(f"run {out} was started with seed {run['seed']}, not {seed}")
         started_from = run.get("initialized_from", {}).get("run")
-        if init_from is not None and str(init_from) != started_from:
+        if init_from is not None and (
+            started_from is None or Path(started_from).resolve() != Path(init_from).resolve()
+        ):
             raise TrainingError(f"run {out} was not started from {init_from}; drop --init-from to resume it")
         return stored, run
     config = config or AgentConfig()
@@ -174,12 +176,14 @@ def _initial_run(source: Path, config: AgentConfig, kernel_sha256: str) -> dict[
     }
 
 
-def _start_from(model, env, source: Path) -> None:
-    """Load a run's newest checkpoint into a new run's ``model`` (weights and optimiser state) and its
-    normaliser ``env`` (running statistics)."""
+def _start_from(model, env, start: dict[str, Any]) -> None:
+    """Load the checkpoint a new run records in ``initialized_from`` (``start``) into its ``model``
+    (weights and optimiser state) and its normaliser ``env`` (running statistics)."""
     import pickle
 
-    checkpoint = _latest_checkpoint(source)
+    checkpoint = Path(start["run"]) / "checkpoints" / start["checkpoint"]
+    if not (checkpoint / "model.zip").is_file():
+        raise TrainingError(f"checkpoint {checkpoint} that this run starts from is gone (trained on since?)")
     try:
         model.set_parameters(str(checkpoint / "model.zip"), exact_match=True, device="cpu")
         normaliser = checkpoint / "normaliser.pkl"
@@ -283,7 +287,7 @@ def train(
             )
             start = run.get("initialized_from")
             if start is not None:
-                _start_from(model, env, Path(start["run"]))
+                _start_from(model, env, start)
                 log(f"starting {out} from {start['run']} ({start['env_steps']} env steps)")
         else:
             try:
