@@ -104,9 +104,14 @@ class ProcessVecEnv(VecEnv):
         process = self._processes[worker]
         process.join(timeout=1.0)
         code = process.exitcode
-        how = "is still running" if code is None else f"exit code {code}"
-        if code is not None and code < 0:
-            how = f"killed by {signal.Signals(-code).name}"
+        if code is None:
+            return WorkerError(f"environment worker {worker} stopped answering (its process still runs)")
+        how = f"exit code {code}"
+        if code < 0:
+            try:
+                how = f"killed by {signal.Signals(-code).name}"
+            except ValueError:
+                how = f"killed by signal {-code}"
         return WorkerError(f"environment worker {worker} exited unexpectedly ({how})")
 
     def _send(self, worker: int, message: tuple[str, Any]) -> None:
