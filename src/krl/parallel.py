@@ -134,11 +134,8 @@ def _run_pool(
                 deliver(futures.pop(future), future.result())
     except BaseException:
         with _signals_ignored():
+            pool.shutdown(wait=False, cancel_futures=True)
             _stop([child for child in multiprocessing.active_children() if child not in before])
-            # The pool's manager thread reaps the dead workers too; joining it (shutdown waits for it)
-            # makes sure it has recorded every exit status, or a worker it reaped first would still
-            # look alive to multiprocessing.active_children().
-            pool.shutdown(wait=True, cancel_futures=True)
         raise
     pool.shutdown()
 
@@ -154,6 +151,12 @@ def _stop(processes: Sequence[Any]) -> None:
         if process.is_alive():
             process.kill()
             process.join()
+    # A pool's manager thread reaps its workers too: one it reaped first looks alive here (our waitpid
+    # finds no child) until that thread records the exit status, a moment later. Wait for it, bounded,
+    # rather than join that thread, which could block with the stop signals ignored.
+    deadline = time.monotonic() + STOP_GRACE
+    while any(process.exitcode is None for process in processes) and time.monotonic() < deadline:
+        time.sleep(0.01)
 
 
 def _raise_interrupted(signum: int, frame: object) -> None:
