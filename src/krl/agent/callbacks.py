@@ -82,8 +82,7 @@ class TrainingCallback(BaseCallback):
         torch.set_num_threads(1)
 
     def _on_step(self) -> bool:
-        if self.bar_task is not None:
-            self.bar.update(self.bar_task, completed=self.num_timesteps)
+        self.bar.update(self.bar_task, completed=self.num_timesteps)
         for info in self.locals["infos"]:
             episode = info.get("episode")
             if episode is not None:
@@ -132,20 +131,18 @@ class TrainingCallback(BaseCallback):
         if final_dir.exists():
             shutil.rmtree(final_dir)
         os.replace(temporary, final_dir)
+        training = {
+            "env_steps": steps,
+            "wall_seconds": state["wall_seconds"],
+            "seed": self.run["seed"],
+            "workers": self.config.workers,
+            "num_envs": self.config.num_envs,
+        }
+        if "initialized_from" in self.run:
+            training["initialized_from"] = self.run["initialized_from"]
         metadata = {
             "kernel_sha256": self.run["kernel_sha256"],
-            "training": {
-                "env_steps": steps,
-                "wall_seconds": state["wall_seconds"],
-                "seed": self.run["seed"],
-                "workers": self.config.workers,
-                "num_envs": self.config.num_envs,
-                **(
-                    {"initialized_from": self.run["initialized_from"]}
-                    if "initialized_from" in self.run
-                    else {}
-                ),
-            },
+            "training": training,
             "software": self.software,
         }
         export_policy(model, normaliser, self.config, metadata).save(self.out / "policy.npz")

@@ -100,15 +100,27 @@ def _latest_checkpoint(out: Path) -> Path | None:
     return path
 
 
+def _read_run(folder: Path) -> tuple[AgentConfig, dict[str, Any]]:
+    """A run folder's config and run record; ``OSError``, ``ValueError`` or ``AgentConfigError`` if either
+    cannot be read."""
+    config_path = folder / "config.json"
+    config = AgentConfig.from_json(json.loads(config_path.read_text()), str(config_path))
+    return config, json.loads((folder / "run.json").read_text())
+
+
+def _corrupt(checkpoint: Path, error: Exception) -> TrainingError:
+    """The one-line error for a checkpoint SB3 or pickle cannot load (they raise many types)."""
+    first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+    return TrainingError(f"checkpoint {checkpoint} is corrupt: {first}")
+
+
 def _open_run(
     out: Path, config: AgentConfig | None, seed: int | None, init_from: Path | None = None
 ) -> tuple[AgentConfig, dict[str, Any]]:
     """Read (resuming) or create the run folder; returns its config and run record."""
-    config_path, run_path = out / "config.json", out / "run.json"
-    if config_path.is_file():
+    if (out / "config.json").is_file():
         try:
-            stored = AgentConfig.from_json(json.loads(config_path.read_text()), str(config_path))
-            run = json.loads(run_path.read_text())
+            stored, run = _read_run(out)
         except (OSError, ValueError, AgentConfigError) as error:
             raise TrainingError(f"run {out} cannot be resumed: {error}") from None
         if config is not None and config != stored:
@@ -141,8 +153,8 @@ def _open_run(
     if init_from is not None:
         run["initialized_from"] = _initial_run(init_from, config, run["kernel_sha256"])
     out.mkdir(parents=True, exist_ok=True)
-    write_atomic(run_path, (json.dumps(run, indent=2) + "\n").encode())
-    write_atomic(config_path, (json.dumps(config.to_json(), indent=2) + "\n").encode())
+    write_atomic(out / "run.json", (json.dumps(run, indent=2) + "\n").encode())
+    write_atomic(out / "config.json", (json.dumps(config.to_json(), indent=2) + "\n").encode())
     return config, run
 
 
@@ -152,8 +164,7 @@ def _initial_run(source: Path, config: AgentConfig, kernel_sha256: str) -> dict[
     if checkpoint is None or not (source / "config.json").is_file():
         raise TrainingError(f"--init-from {source}: not a run folder of krl agent train with a checkpoint")
     try:
-        theirs = AgentConfig.from_json(json.loads((source / "config.json").read_text()), str(source))
-        their_run = json.loads((source / "run.json").read_text())
+        theirs, their_run = _read_run(source)
         state = json.loads((checkpoint / "state.json").read_text())
     except (OSError, ValueError, AgentConfigError) as error:
         raise TrainingError(f"--init-from {source}: {error}") from None
@@ -179,7 +190,7 @@ def _initial_run(source: Path, config: AgentConfig, kernel_sha256: str) -> dict[
 def _start_from(model, env, start: dict[str, Any]) -> None:
     """Load the checkpoint a new run records in ``initialized_from`` (``start``) into its ``model``
     (weights and optimiser state) and its normaliser ``env`` (running statistics)."""
-    import pickle
+    from stable_baselines3.common.vec_env import VecNormalize
 
     checkpoint = Path(start["run"]) / "checkpoints" / start["checkpoint"]
     if not (checkpoint / "model.zip").is_file():
@@ -188,12 +199,10 @@ def _start_from(model, env, start: dict[str, Any]) -> None:
         model.set_parameters(str(checkpoint / "model.zip"), exact_match=True, device="cpu")
         normaliser = checkpoint / "normaliser.pkl"
         if normaliser.is_file():
-            with normaliser.open("rb") as file:
-                theirs = pickle.load(file)
+            theirs = VecNormalize.load(str(normaliser), env.venv)
             env.obs_rms, env.ret_rms = theirs.obs_rms, theirs.ret_rms
-    except Exception as error:  # SB3 and pickle raise many types for a damaged file
-        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-        raise TrainingError(f"checkpoint {checkpoint} is corrupt: {first}") from None
+    except Exception as error:
+        raise _corrupt(checkpoint, error) from None
 
 
 def _run_kernel(out: Path, config: AgentConfig, run: dict[str, Any]) -> str:
@@ -301,9 +310,8 @@ def train(
                         "lr_schedule": LearningRate(ppo, total),
                     },
                 )
-            except Exception as error:  # SB3 and pickle raise many types for a damaged file
-                first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-                raise TrainingError(f"checkpoint {checkpoint} is corrupt: {first}") from None
+            except Exception as error:
+                raise _corrupt(checkpoint, error) from None
             model.num_timesteps = done_steps
             log(f"resuming {out} from {checkpoint.name} ({done_steps} env steps)")
         log_path = out / "progress.csv"

@@ -59,15 +59,15 @@ def _policy(args: argparse.Namespace):
 
 
 def _shown(path: Path) -> str:
-    """A policy file as output names it: a shipped one relative to the krl package (``krl/agent/...``, the
-    same on every machine), any other as given."""
-    import krl
+    """A policy file as output names it: a shipped one as ``krl/agent/policies/...`` (the same on every
+    machine), any other as given."""
+    from krl.agent.policy import shipped_policy_dir
 
-    package = Path(krl.__file__).resolve().parent
     try:
-        return f"krl/{Path(path).resolve().relative_to(package).as_posix()}"
+        inside = Path(path).resolve().relative_to(shipped_policy_dir().resolve())
     except ValueError:
         return str(path)
+    return f"krl/agent/policies/{inside.as_posix()}"
 
 
 def run_run(args: argparse.Namespace) -> int:
