@@ -13,4 +13,8 @@ of Tables 4.3-4.5."""
 THESIS_PUSH_MAGNITUDES: tuple[float, ...] = tuple(float(m) for m in range(250, 901, 50))
 """Push forces of the robustness sweep, Table 5.5: 250-900 N in steps of 50 [N]."""
 
-__all__ = ["COMPARISON_EPOCHS", "THESIS_PUSH_MAGNITUDES", "THESIS_SEEDS"]
+THESIS_PUSH_ATTEMPTS: int = 10
+"""Attempts per push magnitude in Table 5.5 (Section 5.3: "For each magnitude of force applied, we run 10
+attempts")."""
+
+__all__ = ["COMPARISON_EPOCHS", "THESIS_PUSH_ATTEMPTS", "THESIS_PUSH_MAGNITUDES", "THESIS_SEEDS"]

@@ -297,3 +297,45 @@ def test_a_refused_evaluation_writes_nothing(tmp_path, tiny, capsys):
     assert main(argv) == 2
     assert "made by a different course" in capsys.readouterr().err
     assert len((out / "kernel-base" / "commands.txt").read_text().splitlines()) == 1
+
+
+def test_success_interval_is_wilsons():
+    from scipy.stats import binomtest
+
+    for attempts in (1, 3, 10, 50):
+        for successes in range(attempts + 1):
+            expected = binomtest(successes, attempts).proportion_ci(method="wilson")
+            low, high = evaluate.success_interval(successes, attempts)
+            assert (low, high) == pytest.approx((expected.low, expected.high), abs=1e-12)
+    assert evaluate.success_interval(10, 10)[1] == 1.0 and evaluate.success_interval(0, 10)[0] == 0.0
+    with pytest.raises(ValueError, match="successes <= attempts"):
+        evaluate.success_interval(11, 10)
+
+
+def test_push_table_shows_the_attempts_and_intervals():
+    from krl.eval import report
+
+    def record(magnitude, success):
+        push = {"impulse": magnitude * 0.06, "delta_v": magnitude * 0.06 / 12.46}
+        return {
+            "magnitude": magnitude,
+            "metrics": {"success": success, "fell": not success, "error": None, "push": push},
+        }
+
+    records = [record(300.0, a < 48) for a in range(50)] + [record(600.0, a < 20) for a in range(50)]
+    rows = evaluate.summarise_push(records)
+    assert [r["success_rate"] for r in rows] == [0.96, 0.4]
+    assert rows[0]["success_low"] < 0.96 < rows[0]["success_high"] < 1.0
+    pushes = report.push_rows({"agent-rp": {evaluate.PUSH_DIR: records}})
+    thesis = [r for r in pushes if r["source"] == "thesis"]
+    assert all(
+        r["attempts"] == 10 and r["success_low"] <= r["success_rate"] <= r["success_high"] for r in thesis
+    )
+    table = report._push_markdown(pushes)
+    rows = [
+        [c.strip() for c in line.strip("|").split("|")] for line in table.splitlines() if line[:2] == "| "
+    ]
+    cells = {row[1]: row[2:] for row in rows}  # controller: one cell per magnitude, 250 ... 900 N
+    assert cells["agent-rp (50 attempts)"][:8] == ["–", "0.96", "–", "–", "–", "–", "–", "0.40"]
+    assert cells["Agent-rp"][:8] == ["1.0", "1.0", "1.0", "1.0", "0.9", "0.8", "0.9", "0.8"]  # the thesis's
+    assert "95 % Wilson interval" in table

@@ -20,7 +20,7 @@ from krl.reward import EVALUATION_REWARD, RewardParams, reward_terms
 from krl.runner import Runner, StepRecord
 from krl.sim.robot import SimulationUnstableError
 from krl.task.waypoints import TARGET_TIME_LIMIT, WaypointStep
-from krl.thesis import THESIS_PUSH_MAGNITUDES
+from krl.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
 
 RUN_METRICS: tuple[str, ...] = (
     "targets",
@@ -171,8 +171,8 @@ class PushSweep:
 
     magnitudes: tuple[float, ...] = THESIS_PUSH_MAGNITUDES
     """Push forces [N] (thesis Table 5.5: 250-900 N in steps of 50)."""
-    attempts: int = 10
-    """Attempts per magnitude."""
+    attempts: int = THESIS_PUSH_ATTEMPTS
+    """Attempts per magnitude (the thesis's 10)."""
     seed: int = 0
     """Seed of the pushes' random draws."""
     target: tuple[float, float] = (3.0, 0.0)

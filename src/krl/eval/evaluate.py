@@ -12,6 +12,7 @@ do not depend on the number of workers or on the order in which runs finish.
 from __future__ import annotations
 
 import json
+import math
 import statistics
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -268,19 +269,46 @@ def summarise_course(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
+SUCCESS_CONFIDENCE_Z = 1.959963984540054
+"""Standard-normal quantile of the success rates' two-sided 95 % intervals."""
+
+
+def success_interval(successes: int, attempts: int) -> tuple[float, float]:
+    """Wilson score interval (95 %) of a success rate measured as ``successes`` of ``attempts``.
+
+    It stays inside [0, 1] and is not empty at 0 or 1 successes (10 of 10 gives 0.72-1.00), unlike the
+    normal approximation. Used for the push sweep, whose rates come from few attempts per magnitude.
+    """
+    if not 0 <= successes <= attempts or attempts < 1:
+        raise ValueError(f"need 0 <= successes <= attempts >= 1, got {successes} of {attempts}")
+    z2 = SUCCESS_CONFIDENCE_Z**2
+    rate = successes / attempts
+    centre = (rate + z2 / (2 * attempts)) / (1 + z2 / attempts)
+    half = SUCCESS_CONFIDENCE_Z * math.sqrt(rate * (1 - rate) / attempts + z2 / (4 * attempts**2))
+    half /= 1 + z2 / attempts
+    low = 0.0 if successes == 0 else max(0.0, centre - half)
+    high = 1.0 if successes == attempts else min(1.0, centre + half)
+    return low, high
+
+
 def summarise_push(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
-    """One row per magnitude: success and fall rates, mean impulse [N·s] and Δv [m/s] of the pushes."""
+    """One row per magnitude: success rate with its 95 % interval (:func:`success_interval`), fall rate,
+    mean impulse [N·s] and Δv [m/s] of the pushes."""
     by_magnitude: dict[float, list[dict[str, Any]]] = {}
     for record in records:
         by_magnitude.setdefault(float(record["magnitude"]), []).append(record)
     rows = []
     for magnitude in sorted(by_magnitude):
         group = by_magnitude[magnitude]
+        successes = sum(bool(r["metrics"]["success"]) for r in group)
+        low, high = success_interval(successes, len(group))
         rows.append(
             {
                 "magnitude": magnitude,
                 "attempts": len(group),
-                "success_rate": sum(r["metrics"]["success"] for r in group) / len(group),
+                "success_rate": successes / len(group),
+                "success_low": low,
+                "success_high": high,
                 "fall_rate": sum(_counts_as_fall(r["metrics"]) for r in group) / len(group),
                 "impulse": statistics.fmean(r["metrics"]["push"]["impulse"] for r in group),
                 "delta_v": statistics.fmean(r["metrics"]["push"]["delta_v"] for r in group),

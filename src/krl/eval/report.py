@@ -13,9 +13,9 @@ from pathlib import Path
 from typing import Any
 
 from krl.eval.courses import THESIS_COURSES
-from krl.eval.evaluate import PUSH_DIR, load_record, summarise_course, summarise_push
+from krl.eval.evaluate import PUSH_DIR, load_record, success_interval, summarise_course, summarise_push
 from krl.output import csv_bytes, figure_bytes, write_atomic
-from krl.thesis import THESIS_PUSH_MAGNITUDES
+from krl.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
 
 THESIS_NAMES = {
     "expert-stance0.3": "MPC (τ_stance=0.3)",
@@ -133,13 +133,16 @@ def push_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[st
                 rows.append({"source": "krl", "controller": label, **row})
     for name, rates in THESIS_PUSH.items():
         for magnitude, rate in zip(THESIS_PUSH_MAGNITUDES, rates, strict=True):
+            low, high = success_interval(round(rate * THESIS_PUSH_ATTEMPTS), THESIS_PUSH_ATTEMPTS)
             rows.append(
                 {
                     "source": "thesis",
                     "controller": name,
                     "magnitude": magnitude,
-                    "attempts": 10,
+                    "attempts": THESIS_PUSH_ATTEMPTS,
                     "success_rate": rate,
+                    "success_low": low,
+                    "success_high": high,
                 }
             )
     return rows
@@ -189,12 +192,13 @@ def _push_markdown(rows: list[dict[str, Any]]) -> str:
         "| --- | --- | " + " | ".join("---" for _ in magnitudes) + " |",
     ]
     for source, controller in controllers:
-        rates = {
-            r["magnitude"]: r["success_rate"]
-            for r in rows
-            if (r["source"], r["controller"]) == (source, controller)
-        }
-        cells = " | ".join(f"{rates[m]:.1f}" if m in rates else "–" for m in magnitudes)
+        mine = {r["magnitude"]: r for r in rows if (r["source"], r["controller"]) == (source, controller)}
+        attempts = sorted({r["attempts"] for r in mine.values()})
+        # as many decimals as the attempts resolve: 10 attempts move a rate in steps of 0.1
+        digits = 1 if all(10 % n == 0 for n in attempts) else 2
+        cells = " | ".join(f"{mine[m]['success_rate']:.{digits}f}" if m in mine else "–" for m in magnitudes)
+        if attempts != [THESIS_PUSH_ATTEMPTS]:
+            controller = f"{controller} ({'/'.join(map(str, attempts))} attempts)"
         lines.append(f"| {source} | {controller} | {cells} |")
     ours = [r for r in rows if r["source"] == "krl"]
     if ours:
@@ -210,6 +214,13 @@ def _push_markdown(rows: list[dict[str, Any]]) -> str:
             + " | ".join(f"{impulses[m]['delta_v']:.2f}" if m in impulses else "–" for m in magnitudes)
             + " |"
         )
+    low, high = success_interval(7, THESIS_PUSH_ATTEMPTS)
+    lines += [
+        "",
+        f"Rates of {THESIS_PUSH_ATTEMPTS} attempts unless a row says otherwise. Each rate's 95 % Wilson"
+        f" interval is in `push.csv` (`success_low`, `success_high`) and shaded in `push.png`: of"
+        f" {THESIS_PUSH_ATTEMPTS} attempts, a rate of 0.7 lies in {low:.2f}-{high:.2f}.",
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -255,7 +266,17 @@ def _plot_push(path: Path, rows: list[dict[str, Any]]) -> None:
                 for r in rows
                 if r["source"] == source and r["controller"] == controller
             )
-            axis.plot(*zip(*points, strict=True), style, label=f"{controller} ({source})", alpha=0.9)
+            (line,) = axis.plot(
+                *zip(*points, strict=True), style, label=f"{controller} ({source})", alpha=0.9
+            )
+            if source == "krl":
+                band = sorted(
+                    (r["magnitude"], r["success_low"], r["success_high"])
+                    for r in rows
+                    if r["source"] == source and r["controller"] == controller
+                )
+                magnitudes, low, high = zip(*band, strict=True)
+                axis.fill_between(magnitudes, low, high, color=line.get_color(), alpha=0.12, linewidth=0)
     axis.set_xlabel("push force [N] (one 1 ms physics step per control step for 0.3 s)")
     axis.set_ylabel("success rate")
     axis.set_ylim(-0.05, 1.05)
