@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pytest
 
 from krl.cli import main
@@ -315,12 +316,11 @@ def test_success_interval_is_wilsons():
 def test_push_table_shows_the_attempts_and_intervals():
     from krl.eval import report
 
-    def record(magnitude, success):
-        push = {"impulse": magnitude * 0.06, "delta_v": magnitude * 0.06 / 12.46}
-        return {
-            "magnitude": magnitude,
-            "metrics": {"success": success, "fell": not success, "error": None, "push": push},
-        }
+    def record(magnitude, success, azimuth=0.0):
+        force = [magnitude * np.cos(azimuth), magnitude * np.sin(azimuth), 0.0]
+        push = {"impulse": magnitude * 0.06, "delta_v": magnitude * 0.06 / 12.46, "force": force}
+        metrics = {"success": success, "fell": not success, "error": None, "push": push}
+        return {"magnitude": magnitude, "sweep": {"target": [3.0, 0.0]}, "metrics": metrics}
 
     records = [record(300.0, a < 48) for a in range(50)] + [record(600.0, a < 20) for a in range(50)]
     rows = evaluate.summarise_push(records)
@@ -339,3 +339,27 @@ def test_push_table_shows_the_attempts_and_intervals():
     assert cells["agent-rp (50 attempts)"][:8] == ["–", "0.96", "–", "–", "–", "–", "–", "0.40"]
     assert cells["Agent-rp"][:8] == ["1.0", "1.0", "1.0", "1.0", "0.9", "0.8", "0.9", "0.8"]  # the thesis's
     assert "95 % Wilson interval" in table
+
+
+def test_push_directions_are_quarters_around_the_walk():
+    from krl.eval import report
+
+    def record(azimuth_deg, success, target=(3.0, 0.0)):
+        azimuth = np.radians(azimuth_deg)
+        metrics = {
+            "success": success,
+            "push": {"force": [400 * np.cos(azimuth), 400 * np.sin(azimuth), 50.0]},
+        }
+        return {"sweep": {"target": list(target)}, "metrics": metrics}
+
+    assert [evaluate.push_direction(record(a, True)) for a in (10, 80, -170, -100, 44, 46)] == [
+        "forward", "left", "backward", "right", "forward", "left",
+    ]  # fmt: skip
+    assert evaluate.push_direction(record(100, True, target=(0.0, 3.0))) == "forward"  # walking along +y
+    records = [record(0, True), record(0, False), record(90, False), record(-90, True)]
+    rows = {r["direction"]: r for r in evaluate.summarise_push_directions(records)}
+    assert set(rows) == {"forward", "left", "right"}  # no backward push: no row
+    assert rows["forward"]["attempts"] == 2 and rows["forward"]["success_rate"] == 0.5
+    assert rows["left"]["success_high"] < 1.0 and rows["right"]["success_low"] > 0.0
+    table = report._push_direction_markdown(report.push_direction_rows({"x": {evaluate.PUSH_DIR: records}}))
+    assert "| x | 0.50 (2), " in table and "| – |" in table

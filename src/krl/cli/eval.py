@@ -153,7 +153,9 @@ def run_evaluate(args: argparse.Namespace) -> int:
                 [r for r in mine if r.get("course") == course.name]
             )
         if sweep is not None:
-            entry["push"] = evaluate.summarise_push([r for r in mine if "magnitude" in r])
+            pushes = [r for r in mine if "magnitude" in r]
+            entry["push"] = evaluate.summarise_push(pushes)
+            entry["push_directions"] = evaluate.summarise_push_directions(pushes)
         entry["wall_seconds"] = round(sum(r["metrics"]["wall_seconds"] for r in mine), 1)
         summary["controllers"][spec.label] = entry
     emit(summary, args.json)

@@ -291,6 +291,43 @@ def success_interval(successes: int, attempts: int) -> tuple[float, float]:
     return low, high
 
 
+PUSH_DIRECTIONS: tuple[str, ...] = ("forward", "left", "backward", "right")
+"""Quarters of the push's horizontal direction, relative to the sweep's walking direction (origin to
+target): each spans 90° centred on its name (``forward``: the force's azimuth within ±45° of it)."""
+
+
+def push_direction(record: dict[str, Any]) -> str:
+    """Which of :data:`PUSH_DIRECTIONS` a push attempt's force points to (its horizontal part)."""
+    force = record["metrics"]["push"]["force"]
+    target = record["sweep"]["target"]
+    relative = math.atan2(force[1], force[0]) - math.atan2(target[1], target[0])
+    quarter = round(relative / (math.pi / 2)) % 4
+    return PUSH_DIRECTIONS[quarter]
+
+
+def summarise_push_directions(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per push direction (:func:`push_direction`), over every magnitude of the sweep: attempts,
+    success rate and its 95 % interval. Shows which pushes a controller fails, which the per-magnitude
+    rates, each of a mix of directions, do not."""
+    rows = []
+    for direction in PUSH_DIRECTIONS:
+        group = [r for r in records if push_direction(r) == direction]
+        if not group:
+            continue
+        successes = sum(bool(r["metrics"]["success"]) for r in group)
+        low, high = success_interval(successes, len(group))
+        rows.append(
+            {
+                "direction": direction,
+                "attempts": len(group),
+                "success_rate": successes / len(group),
+                "success_low": low,
+                "success_high": high,
+            }
+        )
+    return rows
+
+
 def summarise_push(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     """One row per magnitude: success rate with its 95 % interval (:func:`success_interval`), fall rate,
     mean impulse [N·s] and Δv [m/s] of the pushes."""

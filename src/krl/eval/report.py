@@ -3,7 +3,8 @@
 Reads ``RESULTS/<controller>/<course>/*.json`` and ``RESULTS/<controller>/push/*.json`` and writes, into
 ``OUT``: ``evaluation.md`` (every table, the thesis's numbers beside ours, the commands that made the
 results), one CSV per table, ``courses.png`` (success and fall rate per course and controller) and
-``push.png`` (success rate against push magnitude).
+``push.png`` (success rate against push magnitude), and the push sweep's success by push direction
+(``push-direction.csv``).
 """
 
 from __future__ import annotations
@@ -13,7 +14,15 @@ from pathlib import Path
 from typing import Any
 
 from krl.eval.courses import THESIS_COURSES
-from krl.eval.evaluate import PUSH_DIR, load_record, success_interval, summarise_course, summarise_push
+from krl.eval.evaluate import (
+    PUSH_DIR,
+    PUSH_DIRECTIONS,
+    load_record,
+    success_interval,
+    summarise_course,
+    summarise_push,
+    summarise_push_directions,
+)
 from krl.output import csv_bytes, figure_bytes, write_atomic
 from krl.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
 
@@ -146,6 +155,39 @@ def push_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[st
                 }
             )
     return rows
+
+
+def push_direction_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
+    """One row per (controller, push direction) of ours, over all magnitudes (the thesis has none)."""
+    return [
+        {"controller": label, **row}
+        for label, groups in found.items()
+        if PUSH_DIR in groups
+        for row in summarise_push_directions(groups[PUSH_DIR])
+    ]
+
+
+def _push_direction_markdown(rows: list[dict[str, Any]]) -> str:
+    lines = [
+        "### Push success by direction (all magnitudes)",
+        "",
+        "The force's horizontal direction relative to the walk (origin to target), in quarters of 90°; "
+        "success rate (attempts) and 95 % Wilson interval.",
+        "",
+        "| controller | " + " | ".join(PUSH_DIRECTIONS) + " |",
+        "| --- | " + " | ".join("---" for _ in PUSH_DIRECTIONS) + " |",
+    ]
+    for controller in dict.fromkeys(r["controller"] for r in rows):
+        mine = {r["direction"]: r for r in rows if r["controller"] == controller}
+        cells = [
+            f"{mine[d]['success_rate']:.2f} ({mine[d]['attempts']}), "
+            f"{mine[d]['success_low']:.2f}-{mine[d]['success_high']:.2f}"
+            if d in mine
+            else "–"
+            for d in PUSH_DIRECTIONS
+        ]
+        lines.append(f"| {controller} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def _csv(rows: list[dict[str, Any]]) -> bytes:
@@ -328,6 +370,11 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
         _plot_push(out / "push.png", pushes)
         written.append(str(out / "push.png"))
         parts.append("![success against push magnitude](push.png)\n")
+        directions = push_direction_rows(found)
+        parts.append(_push_direction_markdown(directions))
+        path = out / "push-direction.csv"
+        write_atomic(path, _csv(directions))
+        written.append(str(path))
     if tables:
         _plot_courses(out / "courses.png", tables)
         written.append(str(out / "courses.png"))
