@@ -305,27 +305,30 @@ def push_direction(record: dict[str, Any]) -> str:
     return PUSH_DIRECTIONS[quarter]
 
 
+def _success(group: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Attempts, success rate and its 95 % interval (:func:`success_interval`) of a group of runs."""
+    successes = sum(bool(r["metrics"]["success"]) for r in group)
+    low, high = success_interval(successes, len(group))
+    return {
+        "attempts": len(group),
+        "success_rate": successes / len(group),
+        "success_low": low,
+        "success_high": high,
+    }
+
+
 def summarise_push_directions(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     """One row per push direction (:func:`push_direction`), over every magnitude of the sweep: attempts,
     success rate and its 95 % interval. Shows which pushes a controller fails, which the per-magnitude
     rates, each of a mix of directions, do not."""
-    rows = []
-    for direction in PUSH_DIRECTIONS:
-        group = [r for r in records if push_direction(r) == direction]
-        if not group:
-            continue
-        successes = sum(bool(r["metrics"]["success"]) for r in group)
-        low, high = success_interval(successes, len(group))
-        rows.append(
-            {
-                "direction": direction,
-                "attempts": len(group),
-                "success_rate": successes / len(group),
-                "success_low": low,
-                "success_high": high,
-            }
-        )
-    return rows
+    by_direction: dict[str, list[dict[str, Any]]] = {}
+    for record in records:
+        by_direction.setdefault(push_direction(record), []).append(record)
+    return [
+        {"direction": direction, **_success(by_direction[direction])}
+        for direction in PUSH_DIRECTIONS
+        if direction in by_direction
+    ]
 
 
 def summarise_push(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -337,15 +340,10 @@ def summarise_push(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     rows = []
     for magnitude in sorted(by_magnitude):
         group = by_magnitude[magnitude]
-        successes = sum(bool(r["metrics"]["success"]) for r in group)
-        low, high = success_interval(successes, len(group))
         rows.append(
             {
                 "magnitude": magnitude,
-                "attempts": len(group),
-                "success_rate": successes / len(group),
-                "success_low": low,
-                "success_high": high,
+                **_success(group),
                 "fall_rate": sum(_counts_as_fall(r["metrics"]) for r in group) / len(group),
                 "impulse": statistics.fmean(r["metrics"]["push"]["impulse"] for r in group),
                 "delta_v": statistics.fmean(r["metrics"]["push"]["delta_v"] for r in group),

@@ -303,21 +303,20 @@ def _plot_push(path: Path, rows: list[dict[str, Any]]) -> None:
     fig, axis = plt.subplots(figsize=(7, 4))
     for source, style in (("krl", "-o"), ("thesis", "--x")):
         for controller in dict.fromkeys(r["controller"] for r in rows if r["source"] == source):
-            points = sorted(
-                (r["magnitude"], r["success_rate"])
-                for r in rows
-                if r["source"] == source and r["controller"] == controller
+            mine = sorted(
+                (r for r in rows if r["source"] == source and r["controller"] == controller),
+                key=lambda r: r["magnitude"],
             )
+            magnitudes = [r["magnitude"] for r in mine]
             (line,) = axis.plot(
-                *zip(*points, strict=True), style, label=f"{controller} ({source})", alpha=0.9
+                magnitudes,
+                [r["success_rate"] for r in mine],
+                style,
+                label=f"{controller} ({source})",
+                alpha=0.9,
             )
             if source == "krl":
-                band = sorted(
-                    (r["magnitude"], r["success_low"], r["success_high"])
-                    for r in rows
-                    if r["source"] == source and r["controller"] == controller
-                )
-                magnitudes, low, high = zip(*band, strict=True)
+                low, high = [r["success_low"] for r in mine], [r["success_high"] for r in mine]
                 axis.fill_between(magnitudes, low, high, color=line.get_color(), alpha=0.12, linewidth=0)
     axis.set_xlabel("push force [N] (one 1 ms physics step per control step for 0.3 s)")
     axis.set_ylabel("success rate")
