@@ -227,3 +227,27 @@ def test_generator_rejects_bad_inputs():
         CommandGenerator(period_steps=0)
     with pytest.raises(ValueError, match="CommandParams"):
         CommandGenerator(params={"max_speed": 1.0})  # type: ignore[arg-type]
+
+
+def test_generator_ticks_are_next_command_bit_for_bit():
+    """The generator's one-robot tick (Python floats) gives exactly the bits of next_command on arrays:
+    random targets near and far (the speed cap), on the base (D = 0), previous commands at and past the
+    limits, and the ramp to zero once a target is reached."""
+    rng = np.random.default_rng(7)
+    params = CommandParams(max_speed=0.4)
+    for k in range(3000):
+        base = rng.uniform(-5, 5, 2)
+        target = base.copy() if k % 50 == 0 else base + rng.normal(0, 0.3 if k % 3 else 20.0, 2)
+        yaw = float(rng.uniform(-4, 4))
+        previous = rng.uniform(-0.7, 0.7, 3) * (rng.random(3) < 0.8)
+        gen = CommandGenerator(params, target, period_steps=1)
+        gen._command = previous.copy()
+        got = gen.step(base, yaw)
+        if gen.reached:
+            ramp = previous + np.clip(-previous, -params.rate_limit, params.rate_limit)
+            speed = np.hypot(ramp[0], ramp[1])
+            ramp[:2] *= np.where(speed > params.max_speed, params.max_speed / speed, 1.0)
+            expected = np.clip(ramp, params.low, params.high)
+        else:
+            expected = next_command(target, base, yaw, previous, params)
+        assert got.view(np.int64).tolist() == expected.view(np.int64).tolist(), (k, got, expected)

@@ -138,6 +138,46 @@ def _limit(cmd: np.ndarray, params: CommandParams) -> np.ndarray:
     return np.clip(cmd, params.low, params.high)
 
 
+def _clip(value: float, low: float, high: float) -> float:
+    """``np.clip`` of one float (the same comparisons: max with ``low``, then min with ``high``)."""
+    value = value if value > low else low
+    return value if value < high else high
+
+
+def _tick(
+    delta: tuple[float, float] | None, yaw: float, previous: np.ndarray, params: CommandParams
+) -> np.ndarray:
+    """One tick of one robot's generator: :func:`_next_command` towards a target ``delta`` = target - base
+    [m] away, or (``delta`` None) the ramp of a command to zero, bit for bit, on Python floats.
+
+    The transcendental functions stay NumPy's, as on arrays (libm's may differ in the last bit on some
+    machines); the rest is the same IEEE arithmetic and the same comparisons, without the cost of ~20
+    ufunc calls on 0-d arrays. Shape: (3,).
+    """
+    rate = params.rate_limit
+    v_x, v_y, omega = previous.tolist()
+    if delta is None:
+        raw = (0.0, 0.0, 0.0)
+        v_x, v_y, omega = (v + _clip(-v, -rate, rate) for v in (v_x, v_y, omega))
+    else:
+        dx, dy = delta
+        dist = float(np.hypot(dx, dy))
+        theta = float(wrap_angle(np.arctan2(dy, dx) - yaw)) if dist > 0.0 else 0.0
+        raw = (dist * float(np.cos(theta)), dist * float(np.sin(theta)), params.yaw_gain * theta)
+        v_x, v_y, omega = (v + _clip(r - v, -rate, rate) for v, r in zip((v_x, v_y, omega), raw))
+    speed = float(np.hypot(v_x, v_y))
+    if speed > params.max_speed:
+        scale = params.max_speed / max(speed, 1e-300)
+        v_x, v_y = v_x * scale, v_y * scale
+    return np.array(
+        [
+            _clip(v_x, *params.vx_range),
+            _clip(v_y, *params.vy_range),
+            _clip(omega, *params.yaw_rate_range),
+        ]
+    )
+
+
 def next_command(
     target_xy: np.ndarray,
     base_xy: np.ndarray,
@@ -297,24 +337,26 @@ class CommandGenerator:
         Returns:
             The command ``[v_x, v_y, ω_yaw]`` [m/s, m/s, rad/s] (a copy). Shape: (3,).
         """
-        base = _finite_array("base_xy", base_xy, 2)
+        try:
+            base = np.asarray(base_xy, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"base_xy must be a numeric array, got {base_xy!r}") from None
         if base.shape != (2,):
             raise ValueError(f"base_xy must have shape (2,), got {base.shape}")
+        x, y = base.tolist()
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError(f"base_xy must be finite, got {base_xy!r}")
         yaw_f = _as_float("yaw", yaw)
+        delta = None
         if self._target is None:
             self._distance = math.nan
         else:
-            delta = self._target - base
-            self._distance = float(np.hypot(delta[0], delta[1]))
+            target_x, target_y = self._target.tolist()
+            delta = (target_x - x, target_y - y)
+            self._distance = float(np.hypot(*delta))
         if self._step_count % self._period == 0:
-            if self._target is None or self.reached:
-                p = self._params
-                ramp = self._command + np.clip(-self._command, -p.rate_limit, p.rate_limit)
-                self._command = _limit(ramp, p)
-            else:  # base and yaw checked above, the target by set_target
-                self._command = _next_command(
-                    self._target, base, np.asarray(yaw_f), self._command, self._params
-                )
+            # base and yaw checked above, the target by set_target; a reached target ramps to zero
+            self._command = _tick(None if self.reached else delta, yaw_f, self._command, self._params)
         self._step_count += 1
         return self._command.copy()
 
