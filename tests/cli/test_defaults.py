@@ -97,3 +97,13 @@ def test_run_and_push_options_restate_no_default():
     assert push_sweep_from_args(args) == PushSweep()
     args = build_parser().parse_args(["evaluate", "--controller", "expert", "--magnitudes", "100:200:50"])
     assert push_sweep_from_args(args).magnitudes == (100.0, 150.0, 200.0)
+
+
+def test_evaluate_help_names_every_controller_kind(capsys):
+    from krl.eval.controllers import CONTROLLER_KINDS
+
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for kind in CONTROLLER_KINDS:
+        assert f"{kind}, " in text and f"{kind}:" in text, kind  # the kind and one of its options

@@ -40,7 +40,8 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
         action="append",
         required=True,
         metavar="SPEC",
-        help="expert, expert:stance=0.3, kernel, kernel:ext, kernel:PATH (repeatable)",
+        help="expert, expert:stance=0.3, kernel, kernel:ext, kernel:PATH, agent, agent:base, agent:PATH "
+        "(a policy file or a folder of per-seed ones) (repeatable)",
     )
     parser.add_argument(
         "--course",
