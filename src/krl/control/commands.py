@@ -157,14 +157,13 @@ def _tick(
     rate = params.rate_limit
     v_x, v_y, omega = previous.tolist()
     if delta is None:
-        raw = (0.0, 0.0, 0.0)
         v_x, v_y, omega = (v + _clip(-v, -rate, rate) for v in (v_x, v_y, omega))
     else:
         dx, dy = delta
         dist = float(np.hypot(dx, dy))
         theta = float(wrap_angle(np.arctan2(dy, dx) - yaw)) if dist > 0.0 else 0.0
         raw = (dist * float(np.cos(theta)), dist * float(np.sin(theta)), params.yaw_gain * theta)
-        v_x, v_y, omega = (v + _clip(r - v, -rate, rate) for v, r in zip((v_x, v_y, omega), raw))
+        v_x, v_y, omega = (v + _clip(r - v, -rate, rate) for v, r in zip((v_x, v_y, omega), raw, strict=True))
     speed = float(np.hypot(v_x, v_y))
     if speed > params.max_speed:
         scale = params.max_speed / max(speed, 1e-300)
