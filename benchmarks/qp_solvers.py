@@ -95,13 +95,16 @@ def main():
     report = {}
     for name, solve in (("daqp", solve_daqp), ("proxsuite_dense", solve_proxsuite), ("osqp", solve_osqp)):
         times, errors = [], []
-        for data, ref in zip(problems, reference):
+        for data, ref in zip(problems, reference, strict=True):
             t0 = time.perf_counter()
             x = solve(data)
             times.append(time.perf_counter() - t0)
             errors.append(float(np.max(np.abs(x - ref))))
-        report[name] = {"median_ms": 1e3 * float(np.median(times)), "p95_ms": 1e3 * float(np.percentile(times, 95)),
-                        "max_force_difference_N": max(errors)}
+        report[name] = {
+            "median_ms": 1e3 * float(np.median(times)),
+            "p95_ms": 1e3 * float(np.percentile(times, 95)),
+            "max_force_difference_N": max(errors),
+        }
     report["variables_median"] = float(np.median([len(d[1]) for d in problems]))
     print(json.dumps(report, indent=2))
 
