@@ -92,6 +92,25 @@ def test_push_sweep_records_the_push(tmp_path):
     assert [r["magnitude"] for r in rows] == [300.0, 600.0] and rows[0]["attempts"] == 1
 
 
+def test_a_pushed_walk_records_the_heading_at_the_push():
+    from krl.eval.episodes import score_walk
+    from krl.sim.model import build_model
+    from krl.sim.pushes import Push
+    from krl.sim.robot import A1Sim
+
+    def heading(start_time, yaw):
+        force = np.array([0.0, 300.0, 0.0])
+        push = Push(start_time=start_time, force=force, point=np.zeros(3), duration=0.05)
+        controller = parse_controller("kernel").build()
+        metrics = score_walk(A1Sim(build_model("flat")), controller, np.array([[3.0, 0.0]]), (0.0, 0.0, yaw),
+                             0.2, 0.5, push=push)  # fmt: skip
+        return metrics["push_heading"]
+
+    assert heading(0.1, 0.7) == pytest.approx(0.7, abs=0.05)  # the base's yaw, not the target's direction
+    assert heading(0.1, -0.4) == pytest.approx(-0.4, abs=0.05)
+    assert heading(0.5, 0.7) is None  # the run ended before the push
+
+
 def test_course_summary_by_hand():
     def record(reached, fell, reward, error=None):
         success = reached == 5 and not fell and error is None
@@ -356,6 +375,11 @@ def test_push_directions_are_quarters_around_the_walk():
         "forward", "left", "backward", "right", "forward", "left",
     ]  # fmt: skip
     assert evaluate.push_direction(record(100, True, target=(0.0, 3.0))) == "forward"  # walking along +y
+    turned = record(100, True)
+    turned["metrics"]["push_heading"] = np.pi / 2  # walking along +y when the push came, target along +x
+    assert evaluate.push_direction(turned) == "forward"
+    turned["metrics"]["push_heading"] = None  # the run ended before the push: the target's direction
+    assert evaluate.push_direction(turned) == "left"
     records = [record(0, True), record(0, False), record(90, False), record(-90, True)]
     rows = {r["direction"]: r for r in evaluate.summarise_push_directions(records)}
     assert set(rows) == {"forward", "left", "right"}  # no backward push: no row

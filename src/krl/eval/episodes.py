@@ -21,6 +21,7 @@ from krl.runner import Runner, StepRecord
 from krl.sim.robot import SimulationUnstableError
 from krl.task.waypoints import TARGET_TIME_LIMIT, WaypointStep
 from krl.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
+from krl.timing import CONTROL_DT
 
 RUN_METRICS: tuple[str, ...] = (
     "targets",
@@ -115,8 +116,10 @@ def score_walk(
 ) -> dict[str, Any]:
     """Walk ``controller`` from ``start_pose`` through ``targets`` within ``time_limit`` [s] and score it.
 
-    ``push`` (a :class:`krl.sim.pushes.Push`) is scheduled after the reset; ``video`` records an MP4;
-    ``trace`` receives the base position (x, y, z) [m] after every control step.
+    ``push`` (a :class:`krl.sim.pushes.Push`) is scheduled after the reset, and the metrics then carry
+    ``push_heading``, the base's yaw [rad] at the control step the push starts (None if the run ended
+    before it); ``video`` records an MP4; ``trace`` receives the base position (x, y, z) [m] after every
+    control step.
     A diverging simulation or an MPC that gives up ends the run with an ``error`` (counted as a fall by the
     aggregates) instead of stopping the evaluation.
     """
@@ -131,8 +134,12 @@ def score_walk(
 
         recorder = VideoRecorder(sim, video)
 
+    push_heading: list[float] = []
+
     def on_step(record: StepRecord, step: WaypointStep) -> None:
         scorer(record, step)
+        if push is not None and not push_heading and round(sim.time / CONTROL_DT) > push.start_step:
+            push_heading.append(float(record.before.rpy[2]))
         if recorder is not None:
             recorder.capture()
         if trace is not None:
@@ -154,7 +161,10 @@ def score_walk(
     finally:
         if recorder is not None:
             recorder.close()
-    return scorer.metrics(sim.time, time.perf_counter() - wall, timed_out, error)
+    metrics = scorer.metrics(sim.time, time.perf_counter() - wall, timed_out, error)
+    if push is not None:
+        metrics["push_heading"] = push_heading[0] if push_heading else None
+    return metrics
 
 
 # --- the push sweep (thesis Section 5.3) ---------------------------------------------------------

@@ -297,10 +297,16 @@ target): each spans 90° centred on its name (``forward``: the force's azimuth w
 
 
 def push_direction(record: dict[str, Any]) -> str:
-    """Which of :data:`PUSH_DIRECTIONS` a push attempt's force points to (its horizontal part)."""
-    force = record["metrics"]["push"]["force"]
-    target = record["sweep"]["target"]
-    relative = math.atan2(force[1], force[0]) - math.atan2(target[1], target[0])
+    """Which of :data:`PUSH_DIRECTIONS` a push attempt's force (its horizontal part) points to, relative to
+    the base's heading when the push started (``push_heading``); for a record without it (written before
+    krl recorded it, or a run that ended before the push), relative to the direction of the sweep's target."""
+    metrics = record["metrics"]
+    force = metrics["push"]["force"]
+    heading = metrics.get("push_heading")
+    if heading is None:
+        target = record["sweep"]["target"]
+        heading = math.atan2(target[1], target[0])
+    relative = math.atan2(force[1], force[0]) - heading
     quarter = round(relative / (math.pi / 2)) % 4
     return PUSH_DIRECTIONS[quarter]
 
