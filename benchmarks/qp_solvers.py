@@ -50,16 +50,29 @@ def qp_data(mpc, problem):
     n_feet = int(keep_feet.sum())
     n = 3 * n_feet
     a = mpc._pyramids[: 4 * n_feet, :n]
-    return (hessian, b_w.T @ error, a, mpc._lower_bounds[:n], mpc._upper_bounds[:n],
-            mpc._lower_general[: 4 * n_feet], mpc._upper_general[: 4 * n_feet])
+    return (
+        hessian,
+        b_w.T @ error,
+        a,
+        mpc._lower_bounds[:n],
+        mpc._upper_bounds[:n],
+        mpc._lower_general[: 4 * n_feet],
+        mpc._upper_general[: 4 * n_feet],
+    )
 
 
 def solve_daqp(data):
     import daqp
 
     hessian, g, a, lb, ub, lg, ug = data
-    x, *_ = daqp.solve(hessian, g, a, np.concatenate((ub, ug)), np.concatenate((lb, lg)),
-                       np.zeros(len(ub) + len(ug), dtype=np.int32))
+    x, *_ = daqp.solve(
+        hessian,
+        g,
+        a,
+        np.concatenate((ub, ug)),
+        np.concatenate((lb, lg)),
+        np.zeros(len(ub) + len(ug), dtype=np.int32),
+    )
     return np.asarray(x)
 
 
@@ -68,8 +81,17 @@ def solve_proxsuite(data):
     n = len(g)
     qp = proxsuite.proxqp.dense.QP(n, 0, len(lg), box_constraints=True)
     qp.settings.eps_abs = 1e-6
-    qp.init(hessian, g, None, None, a, np.maximum(lg, -1e20), np.minimum(ug, 1e20),
-            np.maximum(lb, -1e20), np.minimum(ub, 1e20))
+    qp.init(
+        hessian,
+        g,
+        None,
+        None,
+        a,
+        np.maximum(lg, -1e20),
+        np.minimum(ug, 1e20),
+        np.maximum(lb, -1e20),
+        np.minimum(ub, 1e20),
+    )
     qp.solve()
     return np.asarray(qp.results.x)
 
@@ -79,10 +101,17 @@ def solve_osqp(data):
     n = len(g)
     big = scipy.sparse.vstack([scipy.sparse.eye(n), scipy.sparse.csc_matrix(a)]).tocsc()
     solver = osqp.OSQP()
-    solver.setup(scipy.sparse.csc_matrix(np.triu(hessian)), g, big,
-                 np.concatenate((np.maximum(lb, -1e20), np.maximum(lg, -1e20))),
-                 np.concatenate((np.minimum(ub, 1e20), np.minimum(ug, 1e20))),
-                 verbose=False, eps_abs=1e-6, eps_rel=1e-6, polishing=False)
+    solver.setup(
+        scipy.sparse.csc_matrix(np.triu(hessian)),
+        g,
+        big,
+        np.concatenate((np.maximum(lb, -1e20), np.maximum(lg, -1e20))),
+        np.concatenate((np.minimum(ub, 1e20), np.minimum(ug, 1e20))),
+        verbose=False,
+        eps_abs=1e-6,
+        eps_rel=1e-6,
+        polishing=False,
+    )
     return np.asarray(solver.solve().x)
 
 
