@@ -21,7 +21,6 @@ from krl.runner import Runner, StepRecord
 from krl.sim.robot import SimulationUnstableError
 from krl.task.waypoints import TARGET_TIME_LIMIT, WaypointStep
 from krl.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
-from krl.timing import CONTROL_DT
 
 RUN_METRICS: tuple[str, ...] = (
     "targets",
@@ -134,12 +133,13 @@ def score_walk(
 
         recorder = VideoRecorder(sim, video)
 
-    push_heading: list[float] = []
+    push_heading: float | None = None
 
     def on_step(record: StepRecord, step: WaypointStep) -> None:
+        nonlocal push_heading
         scorer(record, step)
-        if push is not None and not push_heading and round(sim.time / CONTROL_DT) > push.start_step:
-            push_heading.append(float(record.before.rpy[2]))
+        if push is not None and push_heading is None and push.active_at(sim.step_count - 1):
+            push_heading = float(record.before.rpy[2])  # the step just taken is the push's first
         if recorder is not None:
             recorder.capture()
         if trace is not None:
@@ -163,7 +163,7 @@ def score_walk(
             recorder.close()
     metrics = scorer.metrics(sim.time, time.perf_counter() - wall, timed_out, error)
     if push is not None:
-        metrics["push_heading"] = push_heading[0] if push_heading else None
+        metrics["push_heading"] = push_heading
     return metrics
 
 

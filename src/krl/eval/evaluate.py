@@ -292,8 +292,9 @@ def success_interval(successes: int, attempts: int) -> tuple[float, float]:
 
 
 PUSH_DIRECTIONS: tuple[str, ...] = ("forward", "left", "backward", "right")
-"""Quarters of the push's horizontal direction, relative to the sweep's walking direction (origin to
-target): each spans 90° centred on its name (``forward``: the force's azimuth within ±45° of it)."""
+"""Quarters of the push's horizontal direction, relative to the base's heading when the push starts
+(:func:`push_direction`): each spans 90° centred on its name (``forward``: the force's azimuth within ±45°
+of it)."""
 
 
 def push_direction(record: dict[str, Any]) -> str:
