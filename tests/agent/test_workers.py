@@ -8,7 +8,7 @@ import pytest
 
 from krl.agent.config import AgentConfig, EnvConfig
 from krl.agent.env import ResidualVecEnv
-from krl.agent.workers import ProcessVecEnv, WorkerError
+from krl.agent.workers import ProcessVecEnv, WorkerError, worker_cores
 
 
 def test_workers_make_the_transitions_of_one_process():
@@ -39,5 +39,20 @@ def test_a_killed_worker_is_a_one_line_error():
         with pytest.raises(WorkerError, match=lost):
             venv.step_async(np.zeros((2, 12)))
             venv.step_wait()
+    finally:
+        venv.close()
+
+
+def test_workers_run_as_batch_processes_one_per_core():
+    cores = sorted(os.sched_getaffinity(0))
+    assert worker_cores(len(cores)) == cores
+    assert worker_cores(len(cores) + 1) == [*cores, cores[0]]
+    assert worker_cores(len(cores) - 1) is None  # fewer workers than cores: the OS places them
+    venv = ProcessVecEnv(AgentConfig(), len(cores), 1, seed=0)
+    try:
+        venv.reset()  # the workers are up and have placed themselves
+        for process, core in zip(venv._processes, cores, strict=True):
+            assert os.sched_getscheduler(process.pid) == os.SCHED_BATCH
+            assert os.sched_getaffinity(process.pid) == {core}
     finally:
         venv.close()

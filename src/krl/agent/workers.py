@@ -7,6 +7,13 @@ the workers' physics runs in parallel while the parent waits. Worker ``k``'s env
 ``workers * num_envs`` robots seeded ``seed``. Workers limit their BLAS to one thread (the batch's small
 matrix products are slower when threads fight over the cores) and die with the parent
 (:mod:`krl.parallel`).
+
+Where the scheduler puts the workers matters (``benchmarks/README.md``, "Where the workers run"). Each
+worker runs as ``SCHED_BATCH``, so waking it with its actions does not preempt the parent, which still
+has the other workers' actions to send; and when there are at least as many workers as usable cores,
+worker ``k`` is pinned to the ``k``-th core (round robin), so that workers stay on their cores instead of
+taking the parent's. With fewer workers than cores the operating system places them. Neither changes
+what the workers compute, only where and when they run.
 """
 
 from __future__ import annotations
@@ -22,10 +29,42 @@ from stable_baselines3.common.vec_env import VecEnv
 from krl.agent.config import AgentConfig
 
 
-def _worker(connection, parent: int, config_json: dict, num_envs: int, seed: int, kernel_path: str | None):
+def worker_cores(workers: int) -> list[int] | None:
+    """The core each of ``workers`` worker processes is pinned to, or None (the operating system places
+    them): pinned when they are at least as many as the cores this process may use, round robin."""
+    if not hasattr(os, "sched_getaffinity"):
+        return None
+    cores = sorted(os.sched_getaffinity(0))
+    if workers < len(cores):
+        return None
+    return [cores[k % len(cores)] for k in range(workers)]
+
+
+def _schedule_worker(core: int | None) -> None:
+    """Run this process as ``SCHED_BATCH``, on ``core`` if given (Linux; elsewhere, or where the system
+    refuses, it runs as it is: placement changes the speed, not the results)."""
+    try:
+        if hasattr(os, "SCHED_BATCH"):
+            os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
+        if core is not None:
+            os.sched_setaffinity(0, {core})
+    except OSError:
+        pass
+
+
+def _worker(
+    connection,
+    parent: int,
+    config_json: dict,
+    num_envs: int,
+    seed: int,
+    kernel_path: str | None,
+    core: int | None,
+):
     from krl.parallel import die_with_parent
 
     die_with_parent(parent)
+    _schedule_worker(core)
     from threadpoolctl import threadpool_limits
 
     limits = threadpool_limits(1)  # held for the worker's life
@@ -80,6 +119,7 @@ class ProcessVecEnv(VecEnv):
         context = multiprocessing.get_context("spawn")
         self._connections = []
         self._processes = []
+        cores = worker_cores(workers)
         for worker in range(workers):
             parent_end, child_end = context.Pipe()
             process = context.Process(
@@ -91,6 +131,7 @@ class ProcessVecEnv(VecEnv):
                     num_envs,
                     seed + worker * num_envs,
                     kernel_path,
+                    None if cores is None else cores[worker],
                 ),
                 daemon=True,
             )
