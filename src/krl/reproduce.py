@@ -296,6 +296,30 @@ def plan(runs: Path, docs: Path, quick: bool = False) -> list[Step]:
             config=(f"{r}/agent-rp.json", json.dumps(config, indent=2) + "\n"),
         )
     )
+    # agent-base (Table 4.8's reward without the roll and pitch term), as shipped: 50 environments per worker
+    base_agent = f"{r}/agent-base-seed150"
+    base_config: dict = {**config, "env": {"reward": "base"}}
+    if not q:
+        base_config.update(num_envs=50, checkpoint_every=1_000_000)
+    steps.append(
+        Step(
+            "agent-base",
+            (
+                "agent",
+                "train",
+                "--out",
+                base_agent,
+                "--seed",
+                "150",
+                "--config",
+                f"{r}/agent-base.json",
+                "--quiet",
+            ),
+            4 if q else 74,
+            "agent-base (seed 150)",
+            config=(f"{r}/agent-base.json", json.dumps(base_config, indent=2) + "\n"),
+        )
+    )
     evaluate = ("--workers", "2", "--out", f"{r}/eval", "--quiet")
     kernel = f"kernel:{r}/kernel-base/kernel.npz"
     policy = f"agent:{agent}/policy.npz"
@@ -315,10 +339,12 @@ def plan(runs: Path, docs: Path, quick: bool = False) -> list[Step]:
                 kernel,
                 "--controller",
                 policy,
+                "--controller",
+                f"agent:{base_agent}/policy.npz",
                 *courses,
                 *evaluate,
             ),
-            6 if q else 12,
+            6 if q else 14,
             "Tables 5.1-5.4 runs",
         ),
         Step(

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 from agent_fakes import make_policy
 
 from krl.agent.config import AgentConfig
@@ -25,6 +26,15 @@ def test_agent_run_and_info_with_a_policy_file(tmp_path, capsys):
 def test_a_shipped_policy_is_named_the_same_on_every_machine(capsys):
     assert main(["agent", "info", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["policy"] == "krl/agent/policies/agent-rp.npz"
+
+
+@pytest.mark.parametrize("name", ["rp", "base"])
+def test_each_shipped_agent_was_trained_with_its_own_reward(name, capsys):
+    assert main(["agent", "info", "--policy", name, "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["policy"] == f"krl/agent/policies/agent-{name}.npz"
+    assert info["reward"] == name and info["kernel"] == "base"
+    assert info["training"]["env_steps"] >= 20_000_000
 
 
 def test_agent_errors_are_one_line(tmp_path, capsys):
