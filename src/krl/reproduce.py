@@ -287,39 +287,25 @@ def plan(runs: Path, docs: Path, quick: bool = False) -> list[Step]:
             num_envs=4,
             ppo={"rollout_steps": 4000, "batch_size": 1000, "n_epochs": 3},
         )
-    steps.append(
-        Step(
-            "agent-rp",
-            ("agent", "train", "--out", agent, "--seed", "150", "--config", f"{r}/agent-rp.json", "--quiet"),
-            4 if q else 120,
-            "agent-rp (seed 150)",
-            config=(f"{r}/agent-rp.json", json.dumps(config, indent=2) + "\n"),
-        )
-    )
-    # agent-base (Table 4.8's reward without the roll and pitch term), as shipped: 50 environments per worker
-    base_agent = f"{r}/agent-base-seed150"
+    # agent-base (Table 4.8's reward without the roll and pitch term) as shipped: 50 environments per worker
     base_config: dict = {**config, "env": {"reward": "base"}}
     if not q:
         base_config.update(num_envs=50, checkpoint_every=1_000_000)
-    steps.append(
-        Step(
-            "agent-base",
-            (
-                "agent",
-                "train",
-                "--out",
-                base_agent,
-                "--seed",
-                "150",
-                "--config",
-                f"{r}/agent-base.json",
-                "--quiet",
-            ),
-            4 if q else 74,
-            "agent-base (seed 150)",
-            config=(f"{r}/agent-base.json", json.dumps(base_config, indent=2) + "\n"),
+    base_agent = f"{r}/agent-base-seed150"
+    for name, out, settings, minutes in (
+        ("agent-rp", agent, config, 120),
+        ("agent-base", base_agent, base_config, 74),
+    ):
+        config_path = f"{r}/{name}.json"
+        steps.append(
+            Step(
+                name,
+                ("agent", "train", "--out", out, "--seed", "150", "--config", config_path, "--quiet"),
+                4 if q else minutes,
+                f"{name} (seed 150)",
+                config=(config_path, json.dumps(settings, indent=2) + "\n"),
+            )
         )
-    )
     evaluate = ("--workers", "2", "--out", f"{r}/eval", "--quiet")
     kernel = f"kernel:{r}/kernel-base/kernel.npz"
     policy = f"agent:{agent}/policy.npz"

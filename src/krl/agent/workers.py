@@ -18,6 +18,7 @@ what the workers compute, only where and when they run.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import signal
@@ -42,14 +43,13 @@ def worker_cores(workers: int) -> list[int] | None:
 
 def _schedule_worker(core: int | None) -> None:
     """Run this process as ``SCHED_BATCH``, on ``core`` if given (Linux; elsewhere, or where the system
-    refuses, it runs as it is: placement changes the speed, not the results)."""
-    try:
-        if hasattr(os, "SCHED_BATCH"):
+    refuses either, it runs as it is: placement changes the speed, not the results)."""
+    if hasattr(os, "SCHED_BATCH"):
+        with contextlib.suppress(OSError):
             os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
-        if core is not None:
+    if core is not None:
+        with contextlib.suppress(OSError):
             os.sched_setaffinity(0, {core})
-    except OSError:
-        pass
 
 
 def _worker(
