@@ -20,7 +20,7 @@ from krl.control.expert import MPCExpert
 from krl.robots.a1.constants import NUM_LEGS
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 
 def record(seconds=10.0):

@@ -27,7 +27,7 @@ def test_demo_says_there_will_be_no_video_before_the_walks(tmp_path, monkeypatch
         said.append(capsys.readouterr().err)
         return []
 
-    monkeypatch.setattr("krl.parallel.run_jobs", no_walks)
+    monkeypatch.setattr("krl.util.parallel.run_jobs", no_walks)
     course = tmp_path / "mine.toml"
     course.write_text(
         'format = 1\nname = "mine"\ndescription = "one waypoint"\ntime_limit = 4.0\nd_min = 0.5\n'

@@ -6,10 +6,10 @@ import pytest
 from krl.control import mpc as mpc_module
 from krl.control.expert import ExpertParams, MPCExpert
 from krl.control.mpc import MPCError
-from krl.runner import Runner
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim
 from krl.task import random_targets
+from krl.task.runner import Runner
 
 
 @pytest.fixture(scope="module")

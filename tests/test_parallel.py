@@ -1,4 +1,5 @@
-"""`krl.parallel.run_jobs`: results independent of the worker count, errors and signals stop every worker.
+"""`krl.util.parallel.run_jobs`: results independent of the worker count, errors and signals stop every
+worker.
 
 The signal tests start a parent process running a pool of sleeping jobs, signal the parent, and read
 ``/proc`` to check that none of its children (the workers, the stdlib's resource tracker) survives.
@@ -13,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from krl.parallel import Interrupted, run_jobs
+from krl.util.parallel import Interrupted, run_jobs
 
 SPAWN_TIMEOUT = 30.0
 """How long the parent may take to start its workers on a loaded machine [s]."""
@@ -77,7 +78,7 @@ def test_bad_worker_count():
 PARENT = """
 import signal, sys, time
 signal.signal(signal.SIGINT, signal.default_int_handler)
-from krl.parallel import Interrupted, run_jobs
+from krl.util.parallel import Interrupted, run_jobs
 try:
     run_jobs(time.sleep, [60.0] * 4, workers=2)
 except Interrupted as stop:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from krl.apps.reproduce import plan, reproduce
 from krl.cli import build_parser, main
-from krl.reproduce import plan, reproduce
 
 
 @pytest.mark.parametrize("quick", [False, True])

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from krl.apps.viewer import KEY_BACKSPACE, KEY_C, KEY_LEFT, KEY_P, KEY_SPACE, KEY_UP, LiveSession
 from krl.cli import main
 from krl.eval.courses import load_course
 from krl.kernel.controller import KernelController
 from krl.kernel.registry import load_model
 from krl.sim.robot import A1Sim
-from krl.viewer import KEY_BACKSPACE, KEY_C, KEY_LEFT, KEY_P, KEY_SPACE, KEY_UP, LiveSession
 
 
 def test_keys_pause_push_steer_and_reset():

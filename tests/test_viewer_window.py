@@ -10,10 +10,10 @@ import textwrap
 
 import pytest
 
+from krl.apps.viewer import VIEW_CAMERA
 from krl.sim.model import build_model
 from krl.sim.render import aim_camera
 from krl.sim.robot import A1Sim
-from krl.viewer import VIEW_CAMERA
 
 
 def test_the_camera_tracks_the_trunk():

@@ -6,8 +6,9 @@ import numpy as np
 
 from krl.agent.config import AgentConfig
 from krl.agent.observation import observation_size
-from krl.agent.policy import Policy, file_sha256
+from krl.agent.policy import Policy
 from krl.kernel.registry import resolve_model
+from krl.util.hashing import file_sha256
 
 
 def make_policy(config: AgentConfig, scale: float = 0.0, seed: int = 0) -> Policy:

@@ -11,10 +11,10 @@ from krl.agent.controller import AgentController
 from krl.agent.residual import ResidualController
 from krl.kernel.controller import KernelController
 from krl.kernel.registry import load_model
-from krl.runner import Runner
 from krl.sim.batch import StateBatch
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim
+from krl.task.runner import Runner
 
 
 def test_zero_action_reproduces_the_kernels_joint_targets_exactly():

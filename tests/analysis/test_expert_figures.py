@@ -21,7 +21,7 @@ from krl.analysis.expert.metrics import (
 )
 from krl.analysis.expert.plan import FIGURES, THESIS_FIGURE
 from krl.cli import expert as expert_cli
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 
 def test_nominal_heights_are_the_expert_defaults():

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from krl.control.commands import CommandGenerator, CommandParams, next_command, wrap_angle
-from krl.timing import COMMAND_PERIOD_STEPS
+from krl.util.timing import COMMAND_PERIOD_STEPS
 
 ZERO = np.zeros(3)
 FAR_AHEAD = np.array([100.0, 0.0])

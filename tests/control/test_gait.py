@@ -19,7 +19,7 @@ from krl.control.gait import (
     state_fraction,
 )
 from krl.robots.a1.constants import LEG_NAMES, NUM_LEGS
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 FR, FL, RR, RL = (LEG_NAMES.index(n) for n in ("FR", "FL", "RR", "RL"))
 

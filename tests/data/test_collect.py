@@ -11,17 +11,12 @@ import numpy as np
 import pytest
 
 from krl.control.expert import RIDE_HEIGHT_RANGE, STEP_HEIGHT_RANGE, ExpertParams, MPCExpert
-from krl.data import (
-    FIELDS,
-    SCHEMA_VERSION,
-    CollectConfig,
-    DatasetError,
-    SettingsMismatchError,
-    collect_dataset,
-    load_dataset,
-)
+from krl.data.collect import CollectConfig, collect_dataset
+from krl.data.reader import load_dataset
+from krl.data.schema import FIELDS, SCHEMA_VERSION, DatasetError
+from krl.data.storage import SettingsMismatchError
 from krl.robots.a1.constants import FOOT_RADIUS
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 SHORT = (0.8, 1.0)
 

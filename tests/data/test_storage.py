@@ -9,7 +9,8 @@ import sys
 import numpy as np
 import pytest
 
-from krl.data.schema import FIELDS, MANIFEST_NAME, DatasetError, load_dataset
+from krl.data.reader import load_dataset
+from krl.data.schema import FIELDS, MANIFEST_NAME, DatasetError
 from krl.data.storage import (
     LOCK_NAME,
     directory_lock,

@@ -6,7 +6,7 @@ import numpy as np
 
 from krl.control.types import JointCommand
 from krl.sim.robot import RobotState
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 
 def make_state(

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from eval_fakes import make_state
 
-from krl.reward import AGENT_BASE_REWARD, EVALUATION_REWARD, TERM_NAMES, RBFTerm, reward_terms
+from krl.task.reward import AGENT_BASE_REWARD, EVALUATION_REWARD, TERM_NAMES, RBFTerm, reward_terms
 
 
 def test_terms_by_hand():

@@ -31,7 +31,7 @@ def expert_columns(n=6):
 
 
 class FakeDataset(dict):
-    """The part of krl.data.schema.Dataset that training uses."""
+    """The part of krl.data.reader.Dataset that training uses."""
 
     content_hash = "fake"
     settings: ClassVar[dict] = {"expert": {"stance_duration": 0.2}}

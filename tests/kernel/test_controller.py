@@ -10,10 +10,10 @@ from krl.kernel.controller import KernelController
 from krl.kernel.features import VARIANTS, input_names, output_size
 from krl.kernel.model import Kernel, NetworkConfig, load_kernel
 from krl.kernel.registry import SHIPPED_MODELS, shipped_model_path
-from krl.runner import Runner
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim
 from krl.task import random_targets
+from krl.task.runner import Runner
 
 
 def random_kernel(variant):

@@ -5,11 +5,11 @@ import json
 import pytest
 
 from krl.cli import main
-from krl.data import CollectConfig, collect_dataset
+from krl.data.collect import CollectConfig, collect_dataset
 from krl.kernel import studies
 from krl.kernel.studies import plan_variants, summarise
 from krl.kernel.train import TrainConfig
-from krl.thesis import THESIS_SEEDS
+from krl.util.thesis import THESIS_SEEDS
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ from krl.robots.a1.constants import (
 )
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim, SimulationUnstableError, motor_torque_bounds
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 
 @pytest.fixture(scope="module")

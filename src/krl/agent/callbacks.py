@@ -16,8 +16,8 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 from krl.agent.config import AgentConfig
 from krl.agent.policy import Policy
-from krl.output import write_atomic
-from krl.progress import progress_bar
+from krl.util.output import write_atomic
+from krl.util.progress import progress_bar
 
 
 class TrainingCallback(BaseCallback):

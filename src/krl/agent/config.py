@@ -113,7 +113,7 @@ class EnvConfig:
 
 
 REWARDS: tuple[str, ...] = ("rp", "base")
-"""Reward functions an agent can train on (:mod:`krl.reward`)."""
+"""Reward functions an agent can train on (:mod:`krl.task.reward`)."""
 
 
 @dataclass(frozen=True)

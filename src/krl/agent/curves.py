@@ -9,7 +9,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from krl.output import figure_bytes, write_atomic
+from krl.util.output import figure_bytes, write_atomic
 
 PANELS: tuple[tuple[str, str], ...] = (
     ("episode/reward", "episode reward"),

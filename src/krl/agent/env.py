@@ -12,7 +12,7 @@ walks to consecutive random waypoints (2.5-3.5 m apart, inside the field) throug
 of Algorithm 2, D_min 0.5 m; a fall terminates it, the 60 s limit truncates it. Terrains: a random height
 field (perturbation ~ U(3, 4.5) cm) with probability 0.75, else Perlin hills, kept for 5 consecutive
 episodes of that environment. Pushes of U(100, 350) N for 0.3 s every U(5, 8) s at a random trunk point,
-slightly upwards (:mod:`krl.sim.pushes`). The reward is :func:`krl.reward.reward_terms` (agent-rp by
+slightly upwards (:mod:`krl.sim.pushes`). The reward is :func:`krl.task.reward.reward_terms` (agent-rp by
 default), the one the evaluation tables use; every term is summed per episode and reported in the info
 of the episode's last step. The evaluation courses are never used here: they are unseen terrain.
 """
@@ -34,12 +34,12 @@ from krl.agent.residual import ResidualController
 from krl.control.commands import CommandParams
 from krl.kernel.model import load_kernel
 from krl.kernel.registry import resolve_model
-from krl.reward import AGENT_BASE_REWARD, EVALUATION_REWARD, reward_terms
 from krl.sim.batch import SimBatch, StateBatch
 from krl.sim.model import build_model
 from krl.sim.pushes import PushDistribution, PushSchedule
+from krl.task.reward import AGENT_BASE_REWARD, EVALUATION_REWARD, reward_terms
 from krl.task.waypoints import TaskStatus, WaypointTask, random_targets
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 EPISODE_INFO_KEYS: tuple[str, ...] = ("r", "l", "t", "targets_reached", "fell", "terrain", "terms")
 """Keys of ``info["episode"]`` on an episode's last step (``r``, ``l``, ``t`` as SB3's Monitor)."""
@@ -215,7 +215,7 @@ class A1ResidualEnv(gym.Env):
 
     Action: 12 numbers in [-1, 1], scaled per axis by ``config.residual.residual_bound`` [m] into the
     four feet's residuals (leg-major x, y, z, base frame) and low-pass filtered. Observation: the
-    configured features (:mod:`krl.agent.observation`). Reward: :func:`krl.reward.reward_terms`, whose
+    configured features (:mod:`krl.agent.observation`). Reward: :func:`krl.task.reward.reward_terms`, whose
     terms are in ``info["reward_terms"]`` every step.
 
     Args:

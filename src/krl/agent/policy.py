@@ -12,7 +12,6 @@ are kept for resuming training only.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import zipfile
 from dataclasses import dataclass
@@ -24,7 +23,8 @@ import numpy as np
 
 from krl.agent.config import AgentConfig, AgentConfigError
 from krl.agent.observation import layout, observation_size
-from krl.output import npz_bytes, write_atomic
+from krl.util.hashing import file_sha256
+from krl.util.output import npz_bytes, write_atomic
 
 FILE_FORMAT = "krl-policy"
 FILE_VERSION = 1
@@ -100,10 +100,6 @@ class Policy:
         arrays["header"] = np.array(json.dumps(header, sort_keys=True))
         write_atomic(path, npz_bytes(arrays))
         return path
-
-
-def file_sha256(path: str | Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def load_policy(path: str | Path, kernel_path: str | Path | None = None, check_kernel: bool = True) -> Policy:

@@ -23,11 +23,12 @@ from krl.agent.observation import ObservationInputs
 from krl.control.filters import LowPassFilter
 from krl.control.gait import gait_params, leg_phases, normalised_phase
 from krl.control.kinematics import inverse_kinematics
-from krl.kernel.features import features_from_columns, input_columns
+from krl.data.columns import input_columns
+from krl.kernel.features import features_from_columns
 from krl.kernel.model import Kernel
-from krl.kernel.registry import training_settings
+from krl.kernel.settings import training_settings
 from krl.robots.a1.constants import NUM_LEGS
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 BATCHABLE_VARIANTS: tuple[str, ...] = ("base", "ind", "ext", "dyn1")
 """Kernel variants the residual path runs (kernel-dyn2's 5-step input history is not batched)."""

@@ -31,9 +31,9 @@ from pathlib import Path
 from typing import Any
 
 from krl.agent.config import AgentConfig, AgentConfigError
-from krl.agent.policy import file_sha256
-from krl.output import write_atomic
-from krl.parallel import Interrupted
+from krl.util.hashing import file_sha256
+from krl.util.output import write_atomic
+from krl.util.parallel import Interrupted
 
 
 class TrainingError(RuntimeError):

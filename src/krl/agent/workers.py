@@ -6,7 +6,7 @@ the workers' physics runs in parallel while the parent waits. Worker ``k``'s env
 ``seed + k * num_envs + i``: the same environments, in the same order, as one ``ResidualVecEnv`` of
 ``workers * num_envs`` robots seeded ``seed``. Workers limit their BLAS to one thread (the batch's small
 matrix products are slower when threads fight over the cores) and die with the parent
-(:mod:`krl.parallel`).
+(:mod:`krl.util.parallel`).
 
 Where the scheduler puts the workers matters (``benchmarks/README.md``, "Where the workers run"). Each
 worker runs as ``SCHED_BATCH``, so waking it with its actions does not preempt the parent, which still
@@ -61,7 +61,7 @@ def _worker(
     kernel_path: str | None,
     core: int | None,
 ):
-    from krl.parallel import die_with_parent
+    from krl.util.parallel import die_with_parent
 
     die_with_parent(parent)
     _schedule_worker(core)

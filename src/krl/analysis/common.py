@@ -15,11 +15,11 @@ from typing import Any
 
 import numpy as np
 
-from krl.output import csv_bytes, figure_bytes, json_value, write_atomic
-from krl.runner import HOLD_RAMP
+from krl.task.runner import HOLD_RAMP
+from krl.util.output import csv_bytes, figure_bytes, json_value, write_atomic
 
 FIG_SIZE: tuple[float, float] = (9.0, 6.0)
-"""Size of a full-width figure [inches] (900 px wide at :data:`krl.output.FIG_DPI`)."""
+"""Size of a full-width figure [inches] (900 px wide at :data:`krl.util.output.FIG_DPI`)."""
 
 DEFAULT_DURATION: float = 8.0
 """Length of each fixed-command run of the velocity sweep [s] (1 s ramp + 1 s settling + 6 s measured)."""
@@ -90,9 +90,9 @@ def hold_velocity(sim, controller, command: Sequence[float], duration: float) ->
     Returns:
         ``fell``, ``error`` (an ``MPCError``/``SimulationUnstableError`` as text, or None), ``samples``
         (control steps measured), ``mean`` and ``std``: the realised (vx, vy, wz) over those steps
-        (:meth:`krl.runner.Runner.hold_command`), NaN without samples.
+        (:meth:`krl.task.runner.Runner.hold_command`), NaN without samples.
     """
-    from krl.runner import Runner
+    from krl.task.runner import Runner
 
     runner = Runner(sim, controller)
     error = None
@@ -149,7 +149,7 @@ def max_cross(rows: Sequence[dict[str, Any]], axis: str) -> float:
 def write_figure(
     out_dir: Path, name: str, fig, table: dict[str, Any], columns: Sequence[str], rows: Sequence[dict]
 ) -> dict[str, Any]:
-    """Write ``NAME.png``, ``NAME.json`` (the table, floats rounded by :func:`krl.output.json_value`) and
+    """Write ``NAME.png``, ``NAME.json`` (the table, floats rounded by :func:`krl.util.output.json_value`) and
     ``NAME.csv`` (``columns`` of ``rows``; a missing key is an empty cell), each atomically.
 
     Returns ``{"png", "json", "csv"}`` (the paths as text) and ``"table"`` (the rounded table).

@@ -35,7 +35,7 @@ from krl.agent.config import DEFAULT_NUM_ENVS
 from krl.robots.a1.constants import KP, STANDING_JOINT_ANGLES
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim
-from krl.timing import SUBSTEPS
+from krl.util.timing import SUBSTEPS
 
 ENV_TARGET_RATIO = 0.5
 TRAIN_TARGET_RATIO = 0.3

@@ -21,7 +21,7 @@ from krl.control.expert import MPCExpert
 from krl.control.mpc import ConvexMPC
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 TARGET_MEDIAN_MS = 1.0
 TARGET_REAL_TIME_FACTOR = 3.0

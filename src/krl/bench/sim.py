@@ -17,7 +17,7 @@ import mujoco
 from krl.robots.a1.constants import KP, STANDING_JOINT_ANGLES
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim
-from krl.timing import SUBSTEPS
+from krl.util.timing import SUBSTEPS
 
 TARGET_RATIO = 0.6
 """Required env/raw throughput ratio (issue #2)."""

@@ -69,7 +69,7 @@ class Parser(argparse.ArgumentParser):
 def interrupted_status(stop: KeyboardInterrupt) -> int:
     """Exit status of a command stopped by a signal: 128 + its number (130 for Ctrl-C, 143 for SIGTERM).
 
-    :class:`krl.parallel.Interrupted` carries the signal; a plain ``KeyboardInterrupt`` is Ctrl-C.
+    :class:`krl.util.parallel.Interrupted` carries the signal; a plain ``KeyboardInterrupt`` is Ctrl-C.
     """
     return 128 + int(getattr(stop, "signum", signal.SIGINT))
 
@@ -294,8 +294,8 @@ def run_controller(args: argparse.Namespace, controller, step_hook=None) -> dict
     """
     import numpy as np
 
-    from krl.runner import Runner
     from krl.task import random_targets
+    from krl.task.runner import Runner
 
     if args.command is None and not args.target and args.targets < 1:
         raise CliError(f"--targets must be >= 1, got {args.targets}")

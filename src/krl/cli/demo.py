@@ -9,7 +9,7 @@ from krl.cli.common import default_of, emit, given
 
 
 def run_demo(args: argparse.Namespace) -> int:
-    from krl.demo import make_demo
+    from krl.apps.demo import make_demo
 
     summary = make_demo(
         args.out,
@@ -30,7 +30,7 @@ def run_demo(args: argparse.Namespace) -> int:
 
 
 def register(subparsers) -> None:
-    from krl.demo import make_demo
+    from krl.apps.demo import make_demo
 
     p = subparsers.add_parser(
         "demo", help="the shipped agent, the kernel and the expert on a thesis course: video, path, metrics"

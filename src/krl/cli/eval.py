@@ -31,7 +31,7 @@ def _magnitudes(text: str) -> tuple[float, ...]:
 
 def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
     from krl.eval.episodes import PushSweep
-    from krl.thesis import THESIS_SEEDS
+    from krl.util.thesis import THESIS_SEEDS
 
     magnitudes = default_of(PushSweep, "magnitudes")
 
@@ -106,7 +106,7 @@ def push_sweep_from_args(args: argparse.Namespace):
 def run_evaluate(args: argparse.Namespace) -> int:
     from krl.eval import evaluate
     from krl.eval.controllers import distinct_controllers, parse_controller
-    from krl.progress import progress_bar
+    from krl.util.progress import progress_bar
 
     specs = distinct_controllers([parse_controller(text) for text in args.controller])
     names = args.course if args.course or args.push_sweep else ["thesis"]
@@ -165,7 +165,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
 
 def _remember_command(path: Path, command: str) -> None:
     """Append ``command`` to the controller's list of evaluate commands (once)."""
-    from krl.output import write_atomic
+    from krl.util.output import write_atomic
 
     known = path.read_text().splitlines() if path.exists() else []
     if command not in known:

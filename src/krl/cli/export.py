@@ -8,7 +8,7 @@ from krl.cli.common import emit
 
 
 def run_export(args: argparse.Namespace) -> int:
-    from krl.export import export
+    from krl.apps.export import export
 
     emit(export(args.out, policy=args.policy, kernel=args.kernel), args.json)
     return 0

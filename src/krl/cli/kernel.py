@@ -96,7 +96,7 @@ def config_from_args(args: argparse.Namespace):
 
 
 def run_train(args: argparse.Namespace) -> int:
-    from krl.data.schema import load_dataset
+    from krl.data.reader import load_dataset
     from krl.kernel.train import train_kernel
 
     config = config_from_args(args)
@@ -126,7 +126,7 @@ def run_train(args: argparse.Namespace) -> int:
 def add_tune_arguments(parser: argparse.ArgumentParser) -> None:
     from krl.kernel.train import TrainConfig
     from krl.kernel.tune import tune
-    from krl.thesis import COMPARISON_EPOCHS
+    from krl.util.thesis import COMPARISON_EPOCHS
 
     parser.add_argument("--data", required=True, help="expert dataset directory (krl collect)")
     parser.add_argument("--out", required=True, help="directory for trials, study.db and best.json")
@@ -152,7 +152,7 @@ def add_tune_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_tune(args: argparse.Namespace) -> int:
-    from krl.data.schema import load_dataset
+    from krl.data.reader import load_dataset
     from krl.kernel.train import TrainConfig
     from krl.kernel.tune import tune
 
@@ -178,7 +178,7 @@ def run_tune(args: argparse.Namespace) -> int:
 
 def add_study_arguments(parser: argparse.ArgumentParser) -> None:
     from krl.kernel.studies import STUDIES, THESIS_DATA_SIZE, VARIANT_DATA
-    from krl.thesis import COMPARISON_EPOCHS, THESIS_SEEDS
+    from krl.util.thesis import COMPARISON_EPOCHS, THESIS_SEEDS
 
     parser.add_argument("study", choices=STUDIES, help="variants (Table 4.4), data-size (4.5), stance (4.3)")
     parser.add_argument("--out", default="docs/results/kernel", help="where the tables go")
@@ -297,7 +297,7 @@ def add_eval_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_eval(args: argparse.Namespace) -> int:
-    from krl.data.schema import load_dataset
+    from krl.data.reader import load_dataset
     from krl.kernel.registry import load_model, resolve_model
     from krl.kernel.scoring import fresh_validation_data, score
 

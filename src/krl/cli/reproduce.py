@@ -14,7 +14,7 @@ def run_step(argv: list[str]) -> int:
 
 
 def run_reproduce(args: argparse.Namespace) -> int:
-    from krl.reproduce import reproduce
+    from krl.apps.reproduce import reproduce
 
     return reproduce(Path(args.runs), Path(args.docs), args.quick, run_step, dry_run=args.dry_run)
 

@@ -9,7 +9,7 @@ from krl.cli.common import CliError, add_terrain_arguments, build_sim, default_o
 
 def _settle(sim, seconds: float) -> None:
     from krl.robots.a1.constants import STANDING_JOINT_ANGLES
-    from krl.timing import CONTROL_DT
+    from krl.util.timing import CONTROL_DT
 
     for _ in range(round(seconds / CONTROL_DT)):
         sim.step(STANDING_JOINT_ANGLES)
@@ -56,16 +56,16 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 
 def cmd_view(args: argparse.Namespace) -> int:
-    from krl.viewer import window_problem
+    from krl.apps.viewer import window_problem
 
     if args.duration is not None and not args.duration > 0:
         raise CliError(f"--duration must be > 0 s, got {args.duration:g}")
     problem = window_problem()
     if problem is not None:
         raise CliError(problem)
+    from krl.apps.viewer import LiveSession, StandingController, run_viewer
     from krl.eval.controllers import parse_controller
     from krl.sim.robot import A1Sim
-    from krl.viewer import LiveSession, StandingController, run_viewer
 
     controller = parse_controller(args.controller).build() if args.controller else StandingController()
     if args.course:

@@ -8,8 +8,8 @@ heading error) by at most ``rate_limit`` per component per 20 Hz tick, its plana
 
 :func:`next_command` is one tick of that law as a pure function (leading batch dimensions broadcast);
 :class:`CommandGenerator` is the stateful version called at every 200 Hz control step, which updates only
-every :data:`krl.timing.COMMAND_PERIOD_STEPS` calls and holds the command in between. How each ambiguity of
-Algorithm 2 was resolved is written down in ``docs/control.md``.
+every :data:`krl.util.timing.COMMAND_PERIOD_STEPS` calls and holds the command in between. How each
+ambiguity of Algorithm 2 was resolved is written down in ``docs/control.md``.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from krl.timing import COMMAND_PERIOD_STEPS
+from krl.util.timing import COMMAND_PERIOD_STEPS
 
 __all__ = ["CommandGenerator", "CommandParams", "next_command", "wrap_angle"]
 

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from krl.robots.a1.constants import LEG_NAMES, NUM_LEGS
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 __all__ = [
     "GAITS",

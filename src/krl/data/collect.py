@@ -37,14 +37,14 @@ from krl.control.commands import CommandParams
 from krl.control.expert import RIDE_HEIGHT_RANGE, STEP_HEIGHT_RANGE, ExpertParams, MPCExpert
 from krl.control.gait import normalised_phase
 from krl.control.mpc import MPCError
+from krl.data.columns import input_columns
 from krl.data.schema import FIELDS, canonical_json
 from krl.data.storage import directory_lock, open_dataset, write_manifest, write_part
-from krl.kernel.features import input_columns
-from krl.progress import progress_bar
-from krl.runner import Runner, StepRecord
 from krl.sim.robot import SimulationUnstableError
 from krl.task import TARGET_DISTANCE, TARGET_TIME_LIMIT, random_targets
-from krl.timing import CONTROL_DT
+from krl.task.runner import Runner, StepRecord
+from krl.util.progress import progress_bar
+from krl.util.timing import CONTROL_DT
 
 MODES: tuple[str, ...] = ("base", "ext", "dyn2")
 """Collection modes (see the module docstring)."""
@@ -234,7 +234,7 @@ def collect_episode(
     """Run one episode and return its rows (numpy arrays by field name) and counts.
 
     Deterministic: a fresh simulator and expert, draws from ``default_rng([seed, episode])``. For each
-    target, in order, the generator draws its distance and direction (:func:`krl.runner.random_targets`,
+    target, in order, the generator draws its distance and direction (:func:`krl.task.runner.random_targets`,
     one target at a time, so a prefix of the draws never depends on the count), then a step height and
     a ride height (drawn in every mode, used in ``ext``), so every mode sees the same draw sequence.
     """

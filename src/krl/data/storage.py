@@ -1,9 +1,10 @@
 """A dataset directory on disk (``docs/data.md``): one Parquet part file per episode plus ``manifest.json``,
-each written atomically and durably (:func:`krl.output.write_atomic`); a lock file against a second writer;
-and opening a directory to collect into: creating its manifest, or checking an existing one against the
-collection's settings and plan, and dropping what an interrupted write left behind.
+each written atomically and durably (:func:`krl.util.output.write_atomic`); a lock file against a second
+writer; and opening a directory to collect into: creating its manifest, or checking an existing one against
+the collection's settings and plan, and dropping what an interrupted write left behind.
 
-:mod:`krl.data.collect` records the rows; :mod:`krl.data.schema` defines them and reads datasets back.
+:mod:`krl.data.collect` records the rows; :mod:`krl.data.schema` defines them and :mod:`krl.data.reader`
+reads datasets back.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from krl.data.reader import read_manifest
 from krl.data.schema import (
     FORMAT_NAME,
     MANIFEST_NAME,
@@ -30,10 +32,9 @@ from krl.data.schema import (
     columns_to_table,
     content_hash,
     dataset_hash,
-    file_sha256,
-    read_manifest,
 )
-from krl.output import write_atomic
+from krl.util.hashing import file_sha256
+from krl.util.output import write_atomic
 
 LOCK_NAME: str = ".lock"
 """Lock file of a dataset directory while a collection writes it (holds the writer's pid)."""
@@ -188,7 +189,7 @@ def settings_difference(old: Mapping[str, Any], new: Mapping[str, Any]) -> list[
 
 
 def _is_own_file(name: str) -> bool:
-    """A temporary file of :func:`krl.output.write_atomic` writing a part or the manifest."""
+    """A temporary file of :func:`krl.util.output.write_atomic` writing a part or the manifest."""
     return name.endswith(".tmp") and name.startswith((".part-", f".{MANIFEST_NAME}."))
 
 

@@ -15,7 +15,7 @@ import numpy as np
 from krl.robots.a1.constants import JOINT_LOWER, JOINT_UPPER, NUM_JOINTS, STANDING_JOINT_ANGLES
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim, RobotState
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 OBSERVATION_LAYOUT: tuple[tuple[str, int], ...] = (
     ("base_height", 1),  # trunk height above the terrain's rest surface under it [m]

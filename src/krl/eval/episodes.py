@@ -1,7 +1,7 @@
 """Scoring one run: a course from one start pose, or one attempt of the push sweep.
 
-:class:`EpisodeScorer` watches a :class:`krl.runner.Runner` step by step and adds up the reward terms
-(:mod:`krl.reward`), the waypoints reached and the distance walked; :func:`score_walk` runs a walk under
+:class:`EpisodeScorer` watches a :class:`krl.task.runner.Runner` step by step and adds up the reward terms
+(:mod:`krl.task.reward`), the waypoints reached and the distance walked; :func:`score_walk` runs a walk under
 it and returns the run's metrics as a JSON-ready dict (keys in :data:`RUN_METRICS`).
 """
 
@@ -16,11 +16,11 @@ from typing import Any
 import numpy as np
 
 from krl.control.mpc import MPCError
-from krl.reward import EVALUATION_REWARD, RewardParams, reward_terms
-from krl.runner import Runner, StepRecord
 from krl.sim.robot import SimulationUnstableError
+from krl.task.reward import EVALUATION_REWARD, RewardParams, reward_terms
+from krl.task.runner import Runner, StepRecord
 from krl.task.waypoints import TARGET_TIME_LIMIT, WaypointStep
-from krl.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
+from krl.util.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
 
 RUN_METRICS: tuple[str, ...] = (
     "targets",

@@ -24,8 +24,8 @@ import numpy as np
 from krl.eval.controllers import ControllerSpec
 from krl.eval.courses import Course
 from krl.eval.episodes import PushSweep, score_push_attempt, score_walk
-from krl.output import write_atomic
-from krl.parallel import run_jobs
+from krl.util.output import write_atomic
+from krl.util.parallel import run_jobs
 
 RESULT_FORMAT = 1
 """Version of the per-run result files."""
@@ -188,8 +188,8 @@ def execute(
     :class:`EvaluationError`; equal tasks run once); and that every stored result was made by its task.
     Then ``on_start()`` is called (the CLI records its command there), and ``on_done(task, record, ran)``
     for each task as its record becomes available (``ran``: False for a stored result). The runs go
-    through :func:`krl.parallel.run_jobs`: Ctrl-C or SIGTERM stops the workers and raises
-    :class:`krl.parallel.Interrupted` (a ``KeyboardInterrupt``); only the runs in flight are lost, every
+    through :func:`krl.util.parallel.run_jobs`: Ctrl-C or SIGTERM stops the workers and raises
+    :class:`krl.util.parallel.Interrupted` (a ``KeyboardInterrupt``); only the runs in flight are lost, every
     record passed to ``on_done`` is stored.
     """
     if workers < 1:

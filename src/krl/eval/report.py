@@ -23,8 +23,8 @@ from krl.eval.evaluate import (
     summarise_push,
     summarise_push_directions,
 )
-from krl.output import csv_bytes, figure_bytes, write_atomic
-from krl.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
+from krl.util.output import csv_bytes, figure_bytes, write_atomic
+from krl.util.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
 
 THESIS_NAMES = {
     "expert-stance0.3": "MPC (τ_stance=0.3)",
@@ -352,8 +352,8 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
     parts += [f"    {line}" for line in commands]
     parts.append("")
     parts.append(
-        "Reward/step: the final reward (Table 4.8 plus the roll/pitch term, `krl.reward`) summed over the "
-        "run and divided by its control steps; mean ± sample std over runs. Targets reached: of the "
+        "Reward/step: the final reward (Table 4.8 plus the roll/pitch term, `krl.task.reward`) summed over "
+        "the run and divided by its control steps; mean ± sample std over runs. Targets reached: of the "
         "course's 5. Success: every waypoint reached; fall: the robot fell (or the run ended in an error).\n"
     )
     for course, rows in tables.items():

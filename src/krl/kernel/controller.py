@@ -16,9 +16,10 @@ from krl.control.expert import RIDE_HEIGHT_RANGE, STEP_HEIGHT_RANGE
 from krl.control.gait import GaitGenerator, gait_params
 from krl.control.kinematics import inverse_kinematics
 from krl.control.types import JointCommand
-from krl.kernel.features import HISTORY, features_from_columns, input_columns, input_names
+from krl.data.columns import input_columns
+from krl.kernel.features import HISTORY, features_from_columns, input_names
 from krl.kernel.model import Kernel
-from krl.kernel.registry import training_settings
+from krl.kernel.settings import training_settings
 from krl.robots.a1.constants import NUM_LEGS
 from krl.sim.robot import RobotState
 

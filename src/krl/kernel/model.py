@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from krl.kernel.features import check_variant, input_names, output_size
-from krl.output import npz_bytes, write_atomic
+from krl.util.output import npz_bytes, write_atomic
 
 FILE_FORMAT = "krl-kernel"
 FILE_VERSION = 1

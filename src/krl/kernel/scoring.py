@@ -11,10 +11,10 @@ from typing import Any
 import numpy as np
 
 from krl.data.collect import CollectConfig, collect_dataset
-from krl.data.schema import load_dataset
+from krl.data.reader import load_dataset
 from krl.kernel.features import features_from_columns, labels_from_columns, split_by_target
 from krl.kernel.model import Kernel
-from krl.kernel.registry import training_settings
+from krl.kernel.settings import training_settings
 
 TIME_BINS: tuple[float, ...] = (0.0, 0.5, 1.0, 2.0, np.inf)
 """Edges [s] of the breakdown's bins of time since the walk to the current target started."""

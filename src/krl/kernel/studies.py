@@ -29,7 +29,7 @@ from typing import Any
 
 from krl.kernel.model import NetworkConfig
 from krl.kernel.train import TrainConfig, train_kernel
-from krl.output import write_atomic
+from krl.util.output import write_atomic
 
 STUDIES: tuple[str, ...] = ("variants", "data-size", "stance")
 
@@ -117,7 +117,7 @@ def plan_stance(data: dict[float, str], seeds: Sequence[int], base: TrainConfig)
 
 def execute(runs: Sequence[StudyRun], runs_dir: Path, progress: bool = True) -> list[dict[str, Any]]:
     """Train every run (resuming unfinished ones); return one record per run."""
-    from krl.data.schema import load_dataset
+    from krl.data.reader import load_dataset
 
     datasets: dict[str, Any] = {}
     records = []
@@ -134,7 +134,7 @@ def execute(runs: Sequence[StudyRun], runs_dir: Path, progress: bool = True) -> 
 def finished(runs: Sequence[StudyRun], runs_dir: Path) -> tuple[list[dict[str, Any]], list[str]]:
     """Records of the runs that have finished training (a kernel written by a run with these settings on
     this data), without training anything; and the names of the others."""
-    from krl.data.schema import read_manifest
+    from krl.data.reader import read_manifest
     from krl.kernel.model import load_kernel
     from krl.kernel.train import CONFIG_NAME, KERNEL_NAME, run_hash
 
@@ -178,10 +178,10 @@ def functional(kernel_path: str, seeds: Sequence[int] = WALK_SEEDS, targets: int
 
     from krl.kernel.controller import KernelController
     from krl.kernel.model import load_kernel
-    from krl.runner import Runner
     from krl.sim.model import build_model
     from krl.sim.robot import A1Sim
     from krl.task import random_targets
+    from krl.task.runner import Runner
 
     kernel = load_kernel(kernel_path)
     for seed in seeds:

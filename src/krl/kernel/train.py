@@ -28,7 +28,7 @@ from krl.kernel.features import (
     split_by_target,
 )
 from krl.kernel.model import Kernel, NetworkConfig
-from krl.output import write_atomic
+from krl.util.output import write_atomic
 
 CHECKPOINT_NAME = "checkpoint.pt"
 KERNEL_NAME = "kernel.npz"
@@ -215,7 +215,7 @@ def train_kernel(
     """Train (or resume training) a kernel; writes ``kernel.npz``, ``config.json`` and a checkpoint.
 
     Args:
-        dataset: a :class:`krl.data.schema.Dataset`.
+        dataset: a :class:`krl.data.reader.Dataset`.
         config: the run's settings.
         out_dir: where outputs go; an existing checkpoint there with the same config and dataset is
             resumed, a different one is an error.
@@ -300,7 +300,7 @@ def train_kernel(
                 total += float(((prediction - yv[start : start + 8192]).abs() * scale).sum())
         return total / (len(xv) * yv.shape[1])
 
-    from krl.progress import progress_bar
+    from krl.util.progress import progress_bar
 
     batches = (len(xt) + config.batch_size - 1) // config.batch_size
     with progress_bar(progress, unit="epochs") as bar:

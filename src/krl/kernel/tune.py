@@ -18,8 +18,8 @@ from typing import Any
 
 from krl.kernel.model import NetworkConfig
 from krl.kernel.train import TrainConfig, prepare_data, train_kernel
-from krl.output import write_atomic
-from krl.thesis import COMPARISON_EPOCHS
+from krl.util.output import write_atomic
+from krl.util.thesis import COMPARISON_EPOCHS
 
 NETWORKS: dict[str, tuple[int, ...]] = {
     "2x128": (128, 128),

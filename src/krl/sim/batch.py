@@ -22,7 +22,7 @@ import numpy as np
 from krl.robots.a1.constants import NUM_JOINTS
 from krl.sim.model import BuiltModel
 from krl.sim.robot import A1Sim, RobotState, SimulationUnstableError, _torque_bounds_into, state_fields
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 
 @dataclass(slots=True)

@@ -18,7 +18,7 @@ from typing import Literal
 import numpy as np
 
 from krl.robots.a1.constants import TOTAL_MASS, TRUNK_HALF_SIZE
-from krl.timing import CONTROL_DT, PHYSICS_DT, SUBSTEPS
+from krl.util.timing import CONTROL_DT, PHYSICS_DT, SUBSTEPS
 
 PushMode = Literal["control_step", "continuous"]
 PUSH_MODES: tuple[str, ...] = ("control_step", "continuous")

@@ -32,7 +32,7 @@ from krl.robots.a1.constants import (
 )
 from krl.sim.model import BuiltModel
 from krl.sim.pushes import Push
-from krl.timing import CONTROL_DT, SUBSTEPS
+from krl.util.timing import CONTROL_DT, SUBSTEPS
 
 FALL_TILT: float = np.pi / 3
 """The robot has fallen when its trunk's up axis is tilted more than this from vertical [rad]."""

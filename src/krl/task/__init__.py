@@ -1,6 +1,6 @@
 """The waypoint task: which waypoint the robot walks to, when it counts as reached, and when time is up.
 
-Used by the runner (:mod:`krl.runner`), the episode scorer (:mod:`krl.eval.episodes`) and the residual
+Used by the runner (:mod:`krl.task.runner`), the episode scorer (:mod:`krl.eval.episodes`) and the residual
 agent's environment (:mod:`krl.agent.env`), so that "reached" and the reward cannot disagree.
 """
 

@@ -8,7 +8,7 @@ and the distance to the current waypoint. Every control step of a walk goes::
     state = <one control step with command>
     step = task.after_step(base_xy)        # distance to the waypoint and whether it is now reached
 
-A waypoint reached by a step is counted (and rewarded, :mod:`krl.reward`) by that step's
+A waypoint reached by a step is counted (and rewarded, :mod:`krl.task.reward`) by that step's
 :meth:`WaypointTask.after_step`; the next :meth:`WaypointTask.command` then moves on to the next one. The
 command generator is stepped once more at that switch (on the same pose), as the runner always did, so
 the command sequence of a walk is unchanged by this object.
@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from krl.control.commands import CommandGenerator, CommandParams
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 TARGET_TIME_LIMIT: float = 40.0
 """Default time allowed to reach one waypoint before the walk gives up [s]."""
@@ -156,7 +156,7 @@ class WaypointTask:
         """Start the walk from the base position ``base_xy`` [m] (shape (2,)).
 
         ``keep_command``: keep the command generator's command and clock (a walk continued from a previous
-        one, :meth:`krl.runner.Runner.walk_to` with ``reset=False``); otherwise they restart from zero.
+        one, :meth:`krl.task.runner.Runner.walk_to` with ``reset=False``); otherwise they restart from zero.
         """
         if not keep_command:
             self.generator.reset()

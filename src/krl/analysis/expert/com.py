@@ -12,8 +12,8 @@ from krl.analysis.expert.metrics import DETREND_MIN_SECONDS, SKIP_SECONDS
 from krl.analysis.expert.plan import THESIS_FIGURE, Settings
 from krl.analysis.expert.runs import SWEEP_STANCE
 from krl.analysis.panels import style
-from krl.output import FIG_DPI
 from krl.task import TARGET_TIME_LIMIT
+from krl.util.output import FIG_DPI
 
 COM_COLUMNS: tuple[str, ...] = (
     "label",

@@ -40,8 +40,8 @@ from krl.analysis.expert.com import COM_COLUMNS, com_table, plot_com
 from krl.analysis.expert.plan import CHOICES, DEFAULT_TARGETS, FIGURES, QUICK_TARGETS, Settings, plan
 from krl.analysis.expert.runs import HoldJob, Job, WalkJob, run_job
 from krl.analysis.expert.velocity import plot_velocity, velocity_table
-from krl.parallel import run_jobs
-from krl.runner import HOLD_RAMP, HOLD_SETTLE
+from krl.task.runner import HOLD_RAMP, HOLD_SETTLE
+from krl.util.parallel import run_jobs
 
 
 class PlotError(ValueError):
@@ -62,7 +62,7 @@ def _summary_line(job: Job, result: dict[str, Any]) -> str:
 
 
 def _execute(jobs: list[Job], workers: int, progress: bool) -> dict[Job, dict[str, Any]]:
-    """Run each distinct job once through :func:`krl.parallel.run_jobs` (in this process for one worker);
+    """Run each distinct job once through :func:`krl.util.parallel.run_jobs` (in this process for one worker);
     with ``progress``, a bar on a terminal and one line per finished condition on stderr either way."""
     # longest first: waypoint walks before fixed-command holds
     order = sorted(jobs, key=lambda job: isinstance(job, HoldJob))

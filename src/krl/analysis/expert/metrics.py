@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 DETREND_MIN_SECONDS: float = 1.0
 """The moving average ``M`` of the detrending spans the fewest whole gait cycles lasting at least this [s]."""

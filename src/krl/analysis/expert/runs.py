@@ -1,6 +1,6 @@
 """The expert's runs behind its figures, one job each: a walk to waypoints (a CoM condition) or a hold of a
 fixed command (a velocity-sweep point). Jobs are plain frozen data, so they travel to worker processes
-(:func:`krl.parallel.run_jobs`) and equal jobs of two figures run once.
+(:func:`krl.util.parallel.run_jobs`) and equal jobs of two figures run once.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from krl.analysis.expert.metrics import (
 )
 from krl.control.expert import NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT
 from krl.task import TARGET_TIME_LIMIT
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 SWEEP_STANCE: float = 0.2
 """τ_stance of the ride/step-height sweeps and of the velocity sweep [s] (the thesis's steady expert)."""
@@ -77,7 +77,7 @@ def _expert_and_sim(stance: float, ride: float, step: float, seed: int):
 def _run_walk(job: WalkJob) -> dict[str, Any]:
     """The walk's outcome and CoM metrics (:func:`com_metrics`), its CoM path every
     :data:`PATH_DECIMATION` steps ((M, 2) [m]) and an excerpt of the deviation and height to draw."""
-    from krl.runner import Runner
+    from krl.task.runner import Runner
 
     expert, sim = _expert_and_sim(job.stance_duration, job.ride_height, job.step_height, job.seed)
     rows: list[np.ndarray] = []

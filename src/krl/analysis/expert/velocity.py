@@ -10,8 +10,8 @@ from krl.analysis.common import FIG_SIZE, VELOCITY_AXES, fit_line, max_cross, ve
 from krl.analysis.expert.plan import THESIS_FIGURE, Settings
 from krl.analysis.expert.runs import SWEEP_STANCE
 from krl.analysis.panels import VELOCITY_NAMES, draw_fit_and_axes, style
-from krl.output import FIG_DPI
-from krl.runner import HOLD_RAMP, HOLD_SETTLE
+from krl.task.runner import HOLD_RAMP, HOLD_SETTLE
+from krl.util.output import FIG_DPI
 
 
 def velocity_table(conditions: list, results: dict, settings: Settings) -> tuple[dict, list]:

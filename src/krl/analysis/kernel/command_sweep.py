@@ -19,7 +19,7 @@ from krl.analysis.kernel.recording import (
     predict_feet,
 )
 from krl.analysis.panels import shade, style
-from krl.output import FIG_DPI
+from krl.util.output import FIG_DPI
 
 VX_SWEEP: tuple[float, float] = (0.0, 1.0)
 VY_SWEEP: tuple[float, float] = (-0.5, 0.5)

@@ -17,7 +17,7 @@ own module of :mod:`krl.analysis.kernel`:
 - ``all``: the six.
 
 Each figure gives ``NAME.png``, ``NAME.json`` and ``NAME.csv`` in the output folder, each written
-atomically (temporary file + ``os.replace``) with the writers of :mod:`krl.output`.
+atomically (temporary file + ``os.replace``) with the writers of :mod:`krl.util.output`.
 """
 
 from __future__ import annotations

@@ -10,8 +10,8 @@ from krl.analysis.kernel.metrics import CYCLE_POINTS, height_metrics
 from krl.analysis.kernel.recording import cycle_inputs, expert_params, kernel_columns, predict_feet
 from krl.analysis.panels import shade, style
 from krl.control.expert import NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT
-from krl.output import FIG_DPI
 from krl.robots.a1.constants import FOOT_RADIUS
+from krl.util.output import FIG_DPI
 
 HEIGHTS_COMMAND: tuple[float, float, float] = (0.3, 0.0, 0.0)
 """Command of ``heights`` (the thesis does not say; a forward walk inside the training range)."""

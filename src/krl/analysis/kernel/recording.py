@@ -14,8 +14,8 @@ from krl.analysis.kernel.context import FR
 from krl.analysis.kernel.metrics import CYCLE_POINTS
 from krl.control.expert import NOMINAL_RIDE_HEIGHT, NOMINAL_STEP_HEIGHT
 from krl.robots.a1.constants import NUM_LEGS
-from krl.runner import HOLD_RAMP
 from krl.task import TARGET_TIME_LIMIT
+from krl.task.runner import HOLD_RAMP
 
 HOLD_DURATION: float = 8.0
 """Length of the expert's fixed-command runs of ``symmetry`` and ``walk-gait`` [s]."""
@@ -87,14 +87,14 @@ def cycle_inputs(
 
 def expert_params(kernel, **overrides):
     """The ``ExpertParams`` the kernel's training data was collected with, ``overrides`` replaced."""
-    from krl.kernel.registry import training_settings
+    from krl.kernel.settings import training_settings
 
     return replace(training_settings(kernel).expert, **overrides)
 
 
 def command_limits(kernel) -> dict[str, tuple[float, float]]:
     """The command generator's limits during the kernel's collection: (low, high) per vx, vy, wz."""
-    from krl.kernel.registry import training_settings
+    from krl.kernel.settings import training_settings
 
     command = training_settings(kernel).command
     return {"vx": command.vx_range, "vy": command.vy_range, "wz": command.yaw_rate_range}
@@ -111,9 +111,9 @@ def record_expert(
     ``targets_reached``, ``reached_at`` (times at which waypoints were reached [s]) and ``error``.
     """
     from krl.control.expert import MPCExpert
-    from krl.runner import Runner
     from krl.sim.model import build_model
     from krl.sim.robot import A1Sim
+    from krl.task.runner import Runner
 
     expert = MPCExpert(params)
     sim = A1Sim(build_model("flat", None, seed))

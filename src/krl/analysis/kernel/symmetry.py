@@ -16,9 +16,9 @@ from krl.analysis.kernel.recording import (
     record_expert,
 )
 from krl.analysis.panels import shade, style
-from krl.output import FIG_DPI
-from krl.runner import HOLD_RAMP, HOLD_SETTLE
-from krl.timing import CONTROL_DT
+from krl.task.runner import HOLD_RAMP, HOLD_SETTLE
+from krl.util.output import FIG_DPI
+from krl.util.timing import CONTROL_DT
 
 SYMMETRY_SPEEDS: tuple[float, ...] = (0.0, 0.3)
 """Frontal velocities of Fig. 4.11 [m/s]."""

@@ -12,9 +12,9 @@ from krl.analysis.kernel.context import CSV_DECIMATION, FR, THESIS_FIGURE, Figur
 from krl.analysis.kernel.metrics import AXES, l1_per_axis
 from krl.analysis.kernel.recording import expert_params, kernel_columns, predict_feet, record_expert
 from krl.analysis.panels import shade, style
-from krl.output import FIG_DPI
 from krl.robots.a1.constants import LEG_NAMES
 from krl.task import TARGET_DISTANCE, TARGET_TIME_LIMIT
+from krl.util.output import FIG_DPI
 
 TRAJECTORY_TARGETS: int = 3
 """Waypoints the expert walks to in ``trajectories``."""

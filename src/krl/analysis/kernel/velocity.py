@@ -26,9 +26,9 @@ from krl.analysis.common import (
 )
 from krl.analysis.kernel.context import THESIS_FIGURE, FigureError, FigureRun
 from krl.analysis.panels import VELOCITY_NAMES, draw_fit_and_axes, style
-from krl.output import FIG_DPI
-from krl.parallel import run_jobs
-from krl.runner import HOLD_RAMP, HOLD_SETTLE
+from krl.task.runner import HOLD_RAMP, HOLD_SETTLE
+from krl.util.output import FIG_DPI
+from krl.util.parallel import run_jobs
 
 
 def _kernel_hold(job: tuple[str, tuple[float, float, float], float, int]) -> dict[str, Any]:

@@ -19,8 +19,8 @@ from krl.analysis.kernel.recording import (
     record_expert,
 )
 from krl.analysis.panels import shade, style
-from krl.output import FIG_DPI
-from krl.runner import HOLD_RAMP, HOLD_SETTLE
+from krl.task.runner import HOLD_RAMP, HOLD_SETTLE
+from krl.util.output import FIG_DPI
 
 WALK_COMMAND: tuple[float, float, float] = (0.3, 0.0, 0.0)
 """Command of ``walk-gait`` (the thesis does not say; a forward walk inside the training range)."""

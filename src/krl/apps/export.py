@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from krl.output import write_atomic
+from krl.util.output import write_atomic
 
 OPSET = 17
 """ONNX opset of the exported graphs."""
@@ -126,10 +126,10 @@ def policy_onnx(policy):
 def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = None) -> dict[str, Any]:
     """What the exported graphs mean (module docstring)."""
     from krl.agent.observation import layout
-    from krl.agent.policy import file_sha256
     from krl.kernel.features import input_names
     from krl.robots.a1.constants import JOINT_NAMES, LEG_NAMES
-    from krl.timing import COMMAND_DT, CONTROL_DT, PHYSICS_DT
+    from krl.util.hashing import file_sha256
+    from krl.util.timing import COMMAND_DT, CONTROL_DT, PHYSICS_DT
 
     document: dict[str, Any] = {
         "format": "krl-export",

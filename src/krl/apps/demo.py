@@ -4,7 +4,7 @@ Each controller walks the course (the stairs by default) from one start; the dem
 folder, a video of the first controller's walk (the agent's), a top-down plot of every controller's path
 with the waypoints (``path.png``), and a table of the runs' metrics (``metrics.md``, ``metrics.csv``). The
 runs are those of ``krl evaluate`` (:func:`krl.eval.episodes.score_walk`): same courses, same reward, same
-scoring. The controllers run on worker processes (:mod:`krl.parallel`).
+scoring. The controllers run on worker processes (:mod:`krl.util.parallel`).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from krl.output import csv_bytes, figure_bytes, write_atomic
+from krl.util.output import csv_bytes, figure_bytes, write_atomic
 
 DEMO_CONTROLLERS: tuple[str, ...] = ("agent", "kernel", "expert")
 """What the demo compares, in order (``krl evaluate`` specs); the first one is filmed."""
@@ -93,7 +93,7 @@ def make_demo(
     """Run the demo (module docstring); returns the summary printed by ``krl demo``. ``say(note)`` hears
     each note (a skipped controller, no video) before the walks start, which take minutes."""
     from krl.eval.courses import load_course
-    from krl.parallel import run_jobs
+    from krl.util.parallel import run_jobs
 
     out = Path(out)
     loaded = load_course(course)

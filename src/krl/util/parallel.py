@@ -31,7 +31,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
-from krl.progress import progress_bar
+from krl.util.progress import progress_bar
 
 __all__ = ["PARENT_POLL", "STOP_GRACE", "Interrupted", "die_with_parent", "run_jobs"]
 

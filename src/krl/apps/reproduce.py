@@ -17,7 +17,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from krl.output import write_atomic
+from krl.util.output import write_atomic
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from krl.control.frames import realised_velocity
 from krl.control.types import Controller, JointCommand
 from krl.sim.robot import A1Sim, RobotState
 from krl.task.waypoints import TARGET_TIME_LIMIT, TaskStatus, WaypointStep, WaypointTask
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 __all__ = ["HOLD_RAMP", "HOLD_SETTLE", "RunResult", "Runner", "StepRecord"]
 

@@ -27,7 +27,7 @@ from krl.robots.a1.constants import STANDING_JOINT_ANGLES
 from krl.sim.pushes import scripted_push
 from krl.sim.render import CameraView, aim_camera
 from krl.task.waypoints import WaypointTask
-from krl.timing import CONTROL_DT
+from krl.util.timing import CONTROL_DT
 
 KEY_SPACE, KEY_BACKSPACE = 32, 259
 KEY_RIGHT, KEY_LEFT, KEY_DOWN, KEY_UP = 262, 263, 264, 265
