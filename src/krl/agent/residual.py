@@ -30,6 +30,9 @@ from krl.kernel.settings import training_settings
 from krl.robots.a1.constants import NUM_LEGS
 from krl.util.timing import CONTROL_DT
 
+ACTION_SIZE: int = 3 * NUM_LEGS
+"""Numbers in one action: a residual (x, y, z) for each foot, leg-major (FR, FL, RR, RL), each in [-1, 1]."""
+
 BATCHABLE_VARIANTS: tuple[str, ...] = ("base", "ind", "ext", "dyn1")
 """Kernel variants the residual path runs (kernel-dyn2's 5-step input history is not batched)."""
 
