@@ -13,6 +13,7 @@ import pytest
 from krl.robots.a1 import MJCF_PATH
 from krl.robots.a1 import constants as C
 from krl.sim.terrains import (
+    HEIGHTFIELD_MAX_HEIGHT_RANGE,
     TERRAIN_NAMES,
     Terrain,
     TerrainError,
@@ -74,6 +75,10 @@ def test_names_and_defaults():
         "seesaw",
     }
     assert terrain_param_defaults("heightfield")["max_height"] is None  # drawn U(3, 4.5) cm
+    assert HEIGHTFIELD_MAX_HEIGHT_RANGE == (0.03, 0.045)  # thesis 4.2.9
+    for name in ("heightfield", "heightfield_mild"):
+        defaults = terrain_param_defaults(name)
+        assert (defaults["max_height_low"], defaults["max_height_high"]) == HEIGHTFIELD_MAX_HEIGHT_RANGE
     assert terrain_param_defaults("heightfield_mild")["max_height"] == 0.02
     assert terrain_param_defaults("sinusoid")["max_incline"] == 0.2
     assert terrain_param_defaults("stairs")["step_height"] == 0.04
