@@ -11,7 +11,7 @@ from agent_fakes import make_policy
 
 from krl.agent.callbacks import export_policy
 from krl.agent.config import AgentConfig, ResidualConfig
-from krl.agent.policy import PolicyFileError, load_policy, policy_artifacts
+from krl.agent.policy import PolicyFileError, load_policy, policy_artifacts, shipped_policy_dir
 from krl.kernel.registry import shipped_model_path
 
 
@@ -99,3 +99,18 @@ def test_a_runs_policy_npz_takes_its_folders_name(tmp_path):
     path = make_policy(AgentConfig()).save(tmp_path / "agent-mine-seed7" / "policy.npz")
     name, files = policy_artifacts(str(path))
     assert name == "mine-seed7" and files == [(None, path)]
+
+
+def test_a_policy_file_records_its_whole_reward_and_shipped_names_still_load(tmp_path):
+    from krl.task.reward import AGENT_BASE_REWARD, EVALUATION_REWARD, RBFTerm, RewardConfig
+
+    custom = RewardConfig(terms=(RBFTerm("upright", "gravity", (0.0, 0.0, -1.0), 5.0, 0.02),))
+    config = AgentConfig.from_json({"env": {"reward": custom.to_json()}})
+    path = make_policy(config, scale=0.1, seed=2).save(tmp_path / "agent-custom.npz")
+    with np.load(path, allow_pickle=False) as data:
+        recorded = json.loads(str(data["header"]))["config"]["env"]["reward"]
+    assert recorded == json.loads(json.dumps(custom.to_json()))
+    assert load_policy(path).config.env.reward == custom
+    # the shipped files recorded a name ("rp", "base"); it maps to the same reward
+    assert load_policy(shipped_policy_dir() / "agent-rp.npz").config.env.reward == EVALUATION_REWARD
+    assert load_policy(shipped_policy_dir() / "agent-base.npz").config.env.reward == AGENT_BASE_REWARD

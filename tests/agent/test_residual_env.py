@@ -71,7 +71,7 @@ def test_unknown_feature_and_malformed_config_are_one_line_errors(tmp_path):
         ObservationConfig(features=("phases",))
     path = tmp_path / "agent.json"
     path.write_text('{"ppo": {"learning_rate": "fast"}}')
-    with pytest.raises(AgentConfigError, match="learning_rate must be a finite number"):
+    with pytest.raises(AgentConfigError, match="learning_rate must be a number, got 'fast'"):
         AgentConfig.load(path)
     path.write_text('{"ppo": {"lr": 0.1}}')
     with pytest.raises(AgentConfigError, match="unknown setting 'lr'"):
@@ -79,3 +79,60 @@ def test_unknown_feature_and_malformed_config_are_one_line_errors(tmp_path):
     path.write_text("{not json")
     with pytest.raises(AgentConfigError, match="not valid"):
         AgentConfig.load(path)
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        ({"env": {"pushes": "no"}}, "config.env.pushes must be true or false, got 'no'"),
+        ({"ppo": {"normalize_observations": "false"}}, "normalize_observations must be true or false"),
+        ({"ppo": {"normalize_rewards": 1}}, "normalize_rewards must be true or false, got 1"),
+        ({"num_envs": 16.0}, "config.num_envs must be an integer, got 16.0"),
+        ({"workers": True}, "config.workers must be an integer, got True"),
+        ({"env": {"d_min": "0.5"}}, "config.env.d_min must be a number, got '0.5'"),
+        ({"residual": {"kernel": 3}}, "config.residual.kernel must be a text, got 3"),
+        ({"residual": {"residual_bound": [0.1, "x", 0.1]}}, "residual_bound must be a number, got 'x'"),
+        ({"ppo": {"shared": 128}}, "config.ppo.shared must be a list, got 128"),
+        ({"observation": {"features": ["phase", 3]}}, "features must be a text, got 3"),
+        ({"env": {"reward": "rpp"}}, "config.env.reward: unknown reward 'rpp'; known: rp, base, initial"),
+    ],
+)
+def test_every_config_field_is_type_checked(data, message):
+    with pytest.raises(AgentConfigError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        AgentConfig.from_json(data)
+
+
+def test_a_config_round_trips_with_its_whole_reward():
+    config = AgentConfig.from_json({"env": {"reward": "base"}, "ppo": {"normalize_rewards": False}})
+    assert AgentConfig.from_json(config.to_json()) == config
+    assert config.to_json()["env"]["reward"]["terms"][0]["name"] == "linear_velocity"
+
+
+@pytest.mark.parametrize("shape", [(3, 4), (2, 6), (12, 1), (1, 12), (11,)])
+def test_an_action_of_another_shape_is_refused(shape):
+    env = A1ResidualEnv()
+    env.reset(seed=1)
+    with pytest.raises(ValueError, match=r"an action has shape \(12,\)"):
+        env.step(np.zeros(shape))
+
+
+def test_an_ended_episode_reports_exactly_the_documented_keys():
+    from krl.agent.env import EPISODE_INFO_KEYS
+
+    config = AgentConfig(env=EnvConfig(episode_time=0.05, pushes=False))  # ends after 10 control steps
+    env = A1ResidualEnv(config)
+    env.reset(seed=2)
+    for _ in range(20):
+        _, _, terminated, truncated, info = env.step(np.zeros(12))
+        if terminated or truncated:
+            break
+    assert tuple(info["episode"]) == EPISODE_INFO_KEYS
+
+
+def test_the_env_docstring_shows_every_feature_of_the_registry():
+    from krl.agent.observation import observation_table
+
+    assert observation_table().replace("\n", "\n    ") in A1ResidualEnv.__doc__
+    assert all(f"``{name}`` | {feature.size} |" in A1ResidualEnv.__doc__ for name, feature in FEATURES.items())
+    assert "gives D = 54" in A1ResidualEnv.__doc__
+    assert observation_size(AgentConfig().observation.features) == 54

@@ -1,12 +1,33 @@
-"""The reward (Table 4.8 + roll/pitch) on hand-worked states."""
+"""The reward (Table 4.8 + roll/pitch) on hand-worked states, and rewards as data (named, saved, checked)."""
 
+import json
 import math
 
 import numpy as np
 import pytest
 from eval_fakes import make_state
 
-from krl.task.reward import AGENT_BASE_REWARD, EVALUATION_REWARD, TERM_NAMES, RBFTerm, reward_terms
+from krl.task.reward import (
+    AGENT_BASE_REWARD,
+    EVALUATION_REWARD,
+    INITIAL_REWARD,
+    REWARDS,
+    RBFTerm,
+    RewardConfig,
+    RewardConfigError,
+    reward_name,
+    reward_terms,
+)
+
+TERM_NAMES = (
+    "linear_velocity",
+    "angular_velocity",
+    "gravity",
+    "target_distance",
+    "roll_pitch",
+    "fall",
+    "target_reached",
+)
 
 
 def test_terms_by_hand():
@@ -45,7 +66,58 @@ def test_nominal_terms_and_agent_base():
 
 
 def test_bad_rbf_parameters():
-    with pytest.raises(ValueError, match="steepness"):
-        RBFTerm(steepness=-1.0, weight=1.0)
-    with pytest.raises(ValueError, match="weight"):
-        RBFTerm(steepness=1.0, weight=math.nan)
+    with pytest.raises(RewardConfigError, match="steepness"):
+        RBFTerm("gravity", "gravity", (0.0, 0.0, -1.0), steepness=-1.0, weight=1.0)
+    with pytest.raises(RewardConfigError, match="weight"):
+        RBFTerm("gravity", "gravity", (0.0, 0.0, -1.0), steepness=1.0, weight=math.nan)
+    with pytest.raises(RewardConfigError, match="no commanded value"):
+        RBFTerm("gravity", "gravity", "command", steepness=1.0, weight=1.0)
+    with pytest.raises(RewardConfigError, match="3 numbers"):
+        RBFTerm("gravity", "gravity", (0.0, -1.0), steepness=1.0, weight=1.0)
+    with pytest.raises(RewardConfigError, match="unknown quantity 'energy'"):
+        RBFTerm("energy", "energy", (0.0,), steepness=1.0, weight=1.0)
+
+
+def test_the_thesis_rewards_by_name():
+    assert REWARDS["rp"] is EVALUATION_REWARD and REWARDS["base"] is AGENT_BASE_REWARD
+    assert EVALUATION_REWARD.term_names == TERM_NAMES
+    assert AGENT_BASE_REWARD.terms == EVALUATION_REWARD.terms[:4]
+    # Table 4.6: the same four terms and steepnesses, every weight 0.01, no nominal terms
+    assert [(t.name, t.steepness, t.weight) for t in INITIAL_REWARD.terms] == [
+        (t.name, t.steepness, 0.01) for t in AGENT_BASE_REWARD.terms
+    ]
+    terms = reward_terms(INITIAL_REWARD, np.zeros(3), make_state(), 0.3, True, True)
+    assert list(terms) == list(TERM_NAMES[:4])
+    assert reward_name(AGENT_BASE_REWARD) == "base" and reward_name(INITIAL_REWARD) == "initial"
+
+
+def test_a_reward_round_trips_through_json_and_names_resolve():
+    for name, reward in REWARDS.items():
+        data = json.loads(json.dumps(reward.to_json()))
+        assert RewardConfig.from_json(data) == reward
+        assert RewardConfig.from_json(name) == reward
+    custom = RewardConfig(
+        terms=(RBFTerm("upright", "gravity", (0.0, 0.0, -1.0), 5.0, 0.02),), target_bonus=None
+    )
+    assert reward_name(custom) is None
+    assert RewardConfig.from_json(json.loads(json.dumps(custom.to_json()))) == custom
+    assert reward_terms(custom, np.zeros(3), make_state(), 0.3, True, True) == {
+        "upright": 0.02,
+        "fall": -19.8,
+    }
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        ("rpp", "unknown reward 'rpp'; known: rp, base, initial"),
+        ({"terms": [], "bonus": 1}, "unknown reward setting 'bonus'"),
+        ({"terms": [{"name": "a", "quantity": "gravity"}]}, "reward term 'a': missing 'target'"),
+        ({"terms": "gravity"}, "reward terms must be a list of tables"),
+        ({"terms": [], "fall_penalty": "big"}, "fall_penalty must be a finite number"),
+    ],
+)
+def test_malformed_rewards_are_one_line_errors(data, message):
+    with pytest.raises(RewardConfigError, match=message.replace("(", r"\(")) as error:
+        RewardConfig.from_json(data)
+    assert "\n" not in str(error.value)

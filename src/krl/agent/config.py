@@ -11,11 +11,17 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from krl.control.commands import CommandParams
 from krl.control.filters import DEFAULT_ALPHA
+from krl.robots.a1.constants import NUM_LEGS
+from krl.sim.pushes import PushDistribution
+from krl.sim.terrains import HEIGHTFIELD_MAX_HEIGHT_RANGE
+from krl.task.reward import EVALUATION_REWARD, RewardConfig, RewardConfigError
 from krl.task.waypoints import TARGET_DISTANCE
 
 
@@ -33,6 +39,10 @@ def _range(name: str, value: tuple[float, float], low: float = 0.0) -> None:
         raise AgentConfigError(f"{name} must be a (low, high) pair of numbers, got {value!r}")
     if not low <= value[0] <= value[1]:
         raise AgentConfigError(f"{name} must satisfy {low} <= low <= high, got {value!r}")
+
+
+ACTION_SIZE: int = 3 * NUM_LEGS
+"""Numbers in one action: a residual (x, y, z) for each foot, leg-major (FR, FL, RR, RL), each in [-1, 1]."""
 
 
 @dataclass(frozen=True)
@@ -64,13 +74,13 @@ class EnvConfig:
 
     heightfield_probability: float = 0.75
     """Probability that a new terrain is a random height field (else Perlin hills)."""
-    heightfield_max_height: tuple[float, float] = (0.03, 0.045)
+    heightfield_max_height: tuple[float, float] = HEIGHTFIELD_MAX_HEIGHT_RANGE
     """Height-field perturbation h ~ U(low, high) [m] (blocks of height U(0, h))."""
     episodes_per_terrain: int = 5
     """Consecutive episodes on one terrain before a new one is drawn."""
     episode_time: float = 60.0
     """Episode length [s]: the thesis counts the targets reached in 60 s; the limit truncates."""
-    d_min: float = 0.5
+    d_min: float = CommandParams.d_min
     """Waypoint threshold D_min [m]."""
     target_distance: tuple[float, float] = TARGET_DISTANCE
     """Distance of each random waypoint from the previous one ~ U(low, high) [m] (as in the collection)."""
@@ -78,12 +88,14 @@ class EnvConfig:
     """Waypoints stay this far inside the terrain's edge [m] (ours: the 24 m fields end)."""
     pushes: bool = True
     """Random pushes on the trunk (Section 4.2.9)."""
-    push_interval: tuple[float, float] = (5.0, 8.0)
+    push_interval: tuple[float, float] = PushDistribution.interval
     """Time between pushes ~ U(low, high) [s]."""
-    push_magnitude: tuple[float, float] = (100.0, 350.0)
+    push_magnitude: tuple[float, float] = PushDistribution.magnitude
     """Push force ~ U(low, high) [N], for 0.3 s, at a random trunk point, directed slightly upwards."""
-    reward: str = "rp"
-    """``rp`` (Table 4.8 + roll/pitch term: agent-rp) or ``base`` (Table 4.8: agent-base)."""
+    reward: RewardConfig = EVALUATION_REWARD
+    """The reward trained on (:mod:`krl.task.reward`): in a config file a name of
+    :data:`krl.task.reward.REWARDS` (``rp``: Table 4.8 + roll/pitch, agent-rp; ``base``: Table 4.8,
+    agent-base; ``initial``: Table 4.6) or the whole table; saved whole in config.json and policy files."""
 
     def __post_init__(self) -> None:
         if not 0 <= self.heightfield_probability <= 1:
@@ -108,12 +120,8 @@ class EnvConfig:
         if self.push_interval[0] <= 0:
             raise AgentConfigError("push_interval must be > 0 s")
         _range("push_magnitude", self.push_magnitude)
-        if self.reward not in REWARDS:
-            raise AgentConfigError(f"unknown reward {self.reward!r}; known: {', '.join(REWARDS)}")
-
-
-REWARDS: tuple[str, ...] = ("rp", "base")
-"""Reward functions an agent can train on (:mod:`krl.task.reward`)."""
+        if not isinstance(self.reward, RewardConfig):
+            raise AgentConfigError(f"reward must be a reward configuration, got {self.reward!r}")
 
 
 @dataclass(frozen=True)
@@ -265,30 +273,58 @@ class AgentConfig:
 
 
 def _from_mapping(cls: type, data: Any, where: str):
+    """``cls`` from a JSON-like table: every key known, every value of its field's type (a list for a
+    tuple, an integer for a float); the sections of :class:`AgentConfig` and the reward recursively."""
     if not isinstance(data, dict):
         raise AgentConfigError(f"{where}: expected a table of settings, got {type(data).__name__}")
-    known = {f.name: f for f in dataclasses.fields(cls)}
+    hints = typing.get_type_hints(cls)
+    known = [f.name for f in dataclasses.fields(cls)]
     unknown = sorted(set(data) - set(known))
     if unknown:
         raise AgentConfigError(f"{where}: unknown setting {unknown[0]!r}; known: {', '.join(known)}")
     values: dict[str, Any] = {}
     for name, value in data.items():
-        kind = known[name].type
         sub = _SECTIONS.get(name) if cls is AgentConfig else None
         if sub is not None:
             values[name] = _from_mapping(sub, value, f"{where}.{name}")
-        elif isinstance(value, list):
-            values[name] = tuple(value)
-        elif "float" in str(kind) and isinstance(value, int) and not isinstance(value, bool):
-            values[name] = float(value)
+        elif hints[name] is RewardConfig:
+            try:
+                values[name] = RewardConfig.from_json(value)
+            except RewardConfigError as error:
+                raise AgentConfigError(f"{where}.{name}: {error}") from None
         else:
-            values[name] = value
+            values[name] = _typed(f"{where}.{name}", value, hints[name])
     try:
         return cls(**values)
     except AgentConfigError as error:
         raise AgentConfigError(f"{where}: {error}") from None
     except (TypeError, ValueError) as error:
         raise AgentConfigError(f"{where}: {error}") from None
+
+
+def _typed(where: str, value: Any, hint: Any) -> Any:
+    """``value`` as the type ``hint`` names (bool, int, float, str or a tuple of them), or a one-line
+    AgentConfigError: ``"no"`` is not a bool, ``true`` is not a number, ``1.5`` is not an integer."""
+    if typing.get_origin(hint) is tuple:
+        if not isinstance(value, (list, tuple)):
+            raise AgentConfigError(f"{where} must be a list, got {value!r}")
+        kinds = typing.get_args(hint)
+        if len(kinds) == 2 and kinds[1] is Ellipsis:
+            kinds = (kinds[0],) * len(value)
+        elif len(kinds) != len(value):
+            raise AgentConfigError(f"{where} must be a list of {len(kinds)} values, got {value!r}")
+        return tuple(_typed(where, item, kind) for item, kind in zip(value, kinds, strict=True))
+    is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if hint is float and is_number:
+        return float(value)
+    if (hint is int and is_number and isinstance(value, int)) or (
+        hint in (bool, str) and isinstance(value, hint)
+    ):
+        return value
+    raise AgentConfigError(f"{where} must be {_KIND_NAMES[hint]}, got {value!r}")
+
+
+_KIND_NAMES: dict[type, str] = {bool: "true or false", int: "an integer", float: "a number", str: "a text"}
 
 
 _SECTIONS: dict[str, type] = {

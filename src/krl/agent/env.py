@@ -26,28 +26,32 @@ from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
-from stable_baselines3.common.vec_env import VecEnv
 
 from krl.agent.config import AgentConfig
-from krl.agent.observation import observation_size, observe
-from krl.agent.residual import ResidualController
+from krl.agent.observation import observation_size, observation_table, observe
+from krl.agent.residual import ACTION_SIZE, ResidualController
+from krl.agent.vec_env import BatchVecEnv
 from krl.control.commands import CommandParams
 from krl.kernel.model import load_kernel
 from krl.kernel.registry import resolve_model
 from krl.sim.batch import SimBatch, StateBatch
 from krl.sim.model import build_model
 from krl.sim.pushes import PushDistribution, PushSchedule
-from krl.task.reward import AGENT_BASE_REWARD, EVALUATION_REWARD, reward_terms
+from krl.task.reward import reward_terms
 from krl.task.waypoints import TaskStatus, WaypointTask, random_targets
 from krl.util.timing import CONTROL_DT
 
-EPISODE_INFO_KEYS: tuple[str, ...] = ("r", "l", "t", "targets_reached", "fell", "terrain", "terms")
+EPISODE_INFO_KEYS: tuple[str, ...] = (
+    "r",
+    "l",
+    "t",
+    "targets_reached",
+    "fell",
+    "unstable",
+    "terrain",
+    "terms",
+)
 """Keys of ``info["episode"]`` on an episode's last step (``r``, ``l``, ``t`` as SB3's Monitor)."""
-
-
-def reward_params(name: str):
-    """The reward function of an agent config's ``env.reward`` name."""
-    return EVALUATION_REWARD if name == "rp" else AGENT_BASE_REWARD
 
 
 class ResidualEnvBatch:
@@ -66,7 +70,7 @@ class ResidualEnvBatch:
         self.controller = ResidualController(load_kernel(self.kernel_path), config.residual, num_envs)
         self.features = config.observation.features
         self.observation_size = observation_size(self.features)
-        self.reward = reward_params(config.env.reward)
+        self.reward = config.env.reward
         self.command_params = replace(CommandParams(), d_min=config.env.d_min)
         env = config.env
         self.pushes = PushDistribution(interval=env.push_interval, magnitude=env.push_magnitude)
@@ -211,16 +215,47 @@ class ResidualEnvBatch:
 
 
 class A1ResidualEnv(gym.Env):
-    """``krl/A1Residual-v0``: one robot; the kernel walks, the agent's action is the foot residual.
+    """``krl/A1Residual-v0``: one A1 on rough terrain; the kernel walks, the agent adds foot residuals.
 
-    Action: 12 numbers in [-1, 1], scaled per axis by ``config.residual.residual_bound`` [m] into the
-    four feet's residuals (leg-major x, y, z, base frame) and low-pass filtered. Observation: the
-    configured features (:mod:`krl.agent.observation`). Reward: :func:`krl.task.reward.reward_terms`, whose
-    terms are in ``info["reward_terms"]`` every step.
+    The kernel (shipped kernel-base by default) maps the velocity command of Algorithm 2 and the gait's
+    phases to the four feet's targets; the action corrects them (thesis Fig. 4.1, Sections 4.2.8-4.2.9).
+    One step is one 200 Hz control step: five 1 ms physics steps of the Table 4.2 PD inside MuJoCo.
 
-    Args:
-        config: the agent's configuration (default :class:`krl.agent.config.AgentConfig`).
-        kernel_path: the kernel file (default: the config's).
+    ## Action space
+    ``Box(-1, 1, (12,), float32)``: per foot (FR, FL, RR, RL) an (x, y, z) residual in the base frame,
+    scaled by ``config.residual.residual_bound`` [m], low-pass filtered (Eq. 4.4, α =
+    ``config.residual.alpha``), added to the kernel's targets, then IK and PD
+    (:class:`krl.agent.residual.ResidualController`). Any other shape raises ValueError.
+
+    ## Observation space
+    ``Box(-inf, inf, (D,), float32)``: the features of ``config.observation.features``, concatenated in that
+    order (the default, the thesis's final set, gives D = 54). Every feature:
+
+    {observation_table}
+
+    ## Rewards
+    :func:`krl.task.reward.reward_terms` with ``config.env.reward`` (a :class:`krl.task.reward.RewardConfig`;
+    agent-rp's by default: Table 4.8 plus roll/pitch): one RBF term per entry of ``reward.terms``
+    (``weight * exp(-q * ||target - measured||^2)``), ``fall`` on the step the robot falls and
+    ``target_reached`` on the step it comes within D_min of its waypoint. ``info["reward_terms"]`` holds every
+    term of the step, and they sum to the reward.
+
+    ## Starting state
+    The robot stands at the terrain's spawn point facing a random direction; waypoints are drawn
+    ``config.env.target_distance`` m apart, ``config.env.field_margin`` m inside the field. The terrain is a
+    random height field with probability ``config.env.heightfield_probability``, else Perlin hills, kept for
+    ``config.env.episodes_per_terrain`` episodes. Pushes (``config.env.pushes``) come every
+    ``push_interval`` s with a force of ``push_magnitude`` N. ``reset(seed=s)`` seeds all of these.
+
+    ## Episode end
+    Terminates when the robot falls (``docs/sim.md``); truncates after ``config.env.episode_time`` s (60 s:
+    the thesis counts the targets reached in 60 s). The last step's ``info["episode"]`` holds the episode's
+    sums (:data:`EPISODE_INFO_KEYS`).
+
+    ## Arguments
+    - ``config``: the agent's configuration (default :class:`krl.agent.config.AgentConfig`).
+    - ``kernel_path``: the kernel file (default: the one ``config.residual.kernel`` names).
+    - ``render_mode``: None or ``"rgb_array"`` (frames from a camera tracking the trunk).
     """
 
     metadata: ClassVar[dict[str, Any]] = {
@@ -239,7 +274,7 @@ class A1ResidualEnv(gym.Env):
         self.batch = ResidualEnvBatch(config or AgentConfig(), 1, kernel_path)
         self.render_mode = render_mode
         self._renderer = None
-        self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(12,), dtype=np.float32)
+        self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(ACTION_SIZE,), dtype=np.float32)
         self.observation_space = gym.spaces.Box(
             -np.inf, np.inf, shape=(self.batch.observation_size,), dtype=np.float32
         )
@@ -253,7 +288,10 @@ class A1ResidualEnv(gym.Env):
         return observation, {"terrain": self.batch.terrain_names[0]}
 
     def step(self, action):
-        action = np.asarray(action, dtype=float).reshape(1, 12)
+        action = np.asarray(action, dtype=float)
+        if action.shape != (ACTION_SIZE,):
+            raise ValueError(f"an action has shape ({ACTION_SIZE},) (x, y, z per foot), got {action.shape}")
+        action = action[None, :]
         observations, rewards, terminated, truncated, infos = self.batch.step(action)
         info = infos[0]
         info["reward_terms"] = {name: float(values[0]) for name, values in self.batch.last_terms.items()}
@@ -274,7 +312,13 @@ class A1ResidualEnv(gym.Env):
             self._renderer = None
 
 
-class ResidualVecEnv(VecEnv):
+if A1ResidualEnv.__doc__:  # None under python -OO
+    A1ResidualEnv.__doc__ = A1ResidualEnv.__doc__.replace(
+        "{observation_table}", observation_table().replace("\n", "\n    ")
+    )
+
+
+class ResidualVecEnv(BatchVecEnv):
     """N residual environments as a Stable-Baselines3 ``VecEnv`` (one process), with automatic resets.
 
     Environment ``i`` is seeded with ``seed + i``, so it makes the same transitions as an
@@ -292,11 +336,10 @@ class ResidualVecEnv(VecEnv):
         self, config: AgentConfig, num_envs: int, seed: int = 0, kernel_path: str | None = None
     ) -> None:
         self.batch = ResidualEnvBatch(config, num_envs, kernel_path)
-        action_space = gym.spaces.Box(-1.0, 1.0, shape=(12,), dtype=np.float32)
+        action_space = gym.spaces.Box(-1.0, 1.0, shape=(ACTION_SIZE,), dtype=np.float32)
         observation_space = gym.spaces.Box(
             -np.inf, np.inf, shape=(self.batch.observation_size,), dtype=np.float32
         )
-        self.render_mode = None  # SB3 asks; frames come from A1ResidualEnv
         super().__init__(num_envs, observation_space, action_space)
         self._seed = seed
         self._actions: np.ndarray | None = None
@@ -328,22 +371,3 @@ class ResidualVecEnv(VecEnv):
         for index in range(self.num_envs):
             self.batch.seed(index, base + index)
         return [base + index for index in range(self.num_envs)]
-
-    def get_attr(self, attr_name: str, indices=None):
-        return [getattr(self, attr_name)] * len(self._indices(indices))
-
-    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
-        setattr(self, attr_name, value)
-
-    def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs):
-        raise NotImplementedError("ResidualVecEnv has no per-environment objects to call methods on")
-
-    def env_is_wrapped(self, wrapper_class, indices=None):
-        return [False] * len(self._indices(indices))
-
-    def _indices(self, indices) -> list[int]:
-        if indices is None:
-            return list(range(self.num_envs))
-        if isinstance(indices, int):
-            return [indices]
-        return list(indices)

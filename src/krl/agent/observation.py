@@ -3,21 +3,8 @@
 Every feature is computed for a batch of N robots at once from the step's :class:`ObservationInputs`.
 The default set is the thesis's final one (4.2.8.3); the optional ones are those of Fig. 4.20.
 
-| name | size | unit | what |
-| --- | --- | --- | --- |
-| ``base_lin_vel`` | 3 | m/s | trunk linear velocity, base frame |
-| ``base_ang_vel`` | 3 | rad/s | trunk angular velocity, base frame |
-| ``command`` | 3 | m/s, m/s, rad/s | commanded (v_x, v_y) and yaw rate of the step (heading frame) |
-| ``joint_pos`` | 12 | rad | joint angles, FR FL RR RL × (abduction, hip, knee) |
-| ``joint_vel`` | 12 | rad/s | joint velocities |
-| ``gravity`` | 3 | 1 | gravity direction in the base frame (the thesis's "CoM"), (0, 0, -1) level |
-| ``roll_pitch`` | 2 | rad | trunk roll and pitch |
-| ``residual`` | 12 | m | the previous step's filtered residual δA^lpf_{t-1}, base frame, leg-major |
-| ``foot_contact`` | 4 | 1 | 1 where the foot touched something in the last physics step |
-| ``phase`` | 4 | 1 | the gait's normalised phases |φ| (Eq. 4.6) of the coming step |
-| ``kernel_targets`` | 12 | m | the kernel's foot targets A^ref_t of the coming step, base frame |
-| ``contact_force`` | 4 | N | normal contact force on each foot in the last physics step |
-
+:func:`observation_table` writes the table of every feature (name, size, unit, what) from
+:data:`FEATURES`, the one registry; :class:`krl.agent.env.A1ResidualEnv`'s docstring shows it.
 :func:`layout` gives the slices of a configured observation.
 """
 
@@ -28,13 +15,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from krl.sim.batch import StateBatch
+
 
 @dataclass(frozen=True)
 class ObservationInputs:
     """What the features are computed from, for N robots."""
 
-    state: object
-    """:class:`krl.sim.batch.StateBatch` of the robots' current states."""
+    state: StateBatch
+    """The robots' current states."""
     command: np.ndarray
     """Velocity commands of the coming step. Shape: (N, 3)."""
     residual: np.ndarray
@@ -50,7 +39,11 @@ class Feature:
     """One observation feature."""
 
     size: int
+    """Numbers the feature adds to the observation."""
     unit: str
+    """Unit of its numbers ("1": dimensionless)."""
+    description: str
+    """What it is, in one line (frame and order of its numbers)."""
     compute: Callable[[ObservationInputs], np.ndarray]
     """``inputs -> (N, size)``."""
 
@@ -60,18 +53,49 @@ def _flat(array: np.ndarray) -> np.ndarray:
 
 
 FEATURES: dict[str, Feature] = {
-    "base_lin_vel": Feature(3, "m/s", lambda i: i.state.lin_vel_base),
-    "base_ang_vel": Feature(3, "rad/s", lambda i: i.state.ang_vel_base),
-    "command": Feature(3, "m/s, m/s, rad/s", lambda i: i.command),
-    "joint_pos": Feature(12, "rad", lambda i: i.state.joint_pos),
-    "joint_vel": Feature(12, "rad/s", lambda i: i.state.joint_vel),
-    "gravity": Feature(3, "1", lambda i: i.state.projected_gravity),
-    "roll_pitch": Feature(2, "rad", lambda i: i.state.rpy[:, :2]),
-    "residual": Feature(12, "m", lambda i: _flat(i.residual)),
-    "foot_contact": Feature(4, "1", lambda i: i.state.foot_contact.astype(float)),
-    "phase": Feature(4, "1", lambda i: i.normalised_phase),
-    "kernel_targets": Feature(12, "m", lambda i: _flat(i.kernel_targets)),
-    "contact_force": Feature(4, "N", lambda i: i.state.foot_force),
+    "base_lin_vel": Feature(3, "m/s", "trunk linear velocity, base frame", lambda i: i.state.lin_vel_base),
+    "base_ang_vel": Feature(3, "rad/s", "trunk angular velocity, base frame", lambda i: i.state.ang_vel_base),
+    "command": Feature(
+        3,
+        "m/s, m/s, rad/s",
+        "commanded (v_x, v_y) and yaw rate of the step (heading frame)",
+        lambda i: i.command,
+    ),
+    "joint_pos": Feature(
+        12, "rad", "joint angles, FR FL RR RL × (abduction, hip, knee)", lambda i: i.state.joint_pos
+    ),
+    "joint_vel": Feature(12, "rad/s", "joint velocities", lambda i: i.state.joint_vel),
+    "gravity": Feature(
+        3,
+        "1",
+        'gravity direction in the base frame (the thesis\'s "CoM"), (0, 0, -1) level',
+        lambda i: i.state.projected_gravity,
+    ),
+    "roll_pitch": Feature(2, "rad", "trunk roll and pitch", lambda i: i.state.rpy[:, :2]),
+    "residual": Feature(
+        12,
+        "m",
+        "the previous step's filtered residual δA^lpf_{t-1}, base frame, leg-major",
+        lambda i: _flat(i.residual),
+    ),
+    "foot_contact": Feature(
+        4,
+        "1",
+        "1 where the foot touched something in the last physics step",
+        lambda i: i.state.foot_contact.astype(float),
+    ),
+    "phase": Feature(
+        4, "1", "the gait's normalised phases (Eq. 4.6) of the coming step", lambda i: i.normalised_phase
+    ),
+    "kernel_targets": Feature(
+        12,
+        "m",
+        "the kernel's foot targets A^ref_t of the coming step, base frame",
+        lambda i: _flat(i.kernel_targets),
+    ),
+    "contact_force": Feature(
+        4, "N", "normal contact force on each foot in the last physics step", lambda i: i.state.foot_force
+    ),
 }
 """Every observation feature, by name."""
 
@@ -92,6 +116,13 @@ def layout(features: Sequence[str]) -> list[dict[str, object]]:
         )
         start += feature.size
     return rows
+
+
+def observation_table() -> str:
+    """Every feature of :data:`FEATURES` as a Markdown table: name, size, unit, what."""
+    lines = ["| name | size | unit | what |", "| --- | --- | --- | --- |"]
+    lines += [f"| ``{n}`` | {f.size} | {f.unit} | {f.description} |" for n, f in FEATURES.items()]
+    return "\n".join(lines)
 
 
 def observation_size(features: Sequence[str]) -> int:

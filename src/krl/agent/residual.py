@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from krl.agent.config import ResidualConfig
+from krl.agent.config import ACTION_SIZE, ResidualConfig
 from krl.agent.observation import ObservationInputs
 from krl.control.filters import LowPassFilter
 from krl.control.gait import gait_params, leg_phases, normalised_phase
@@ -28,10 +28,10 @@ from krl.kernel.features import features_from_columns
 from krl.kernel.model import Kernel
 from krl.kernel.settings import training_settings
 from krl.robots.a1.constants import NUM_LEGS
+from krl.sim.batch import StateBatch
 from krl.util.timing import CONTROL_DT
 
-ACTION_SIZE: int = 3 * NUM_LEGS
-"""Numbers in one action: a residual (x, y, z) for each foot, leg-major (FR, FL, RR, RL), each in [-1, 1]."""
+__all__ = ["ACTION_SIZE", "BATCHABLE_VARIANTS", "ResidualController"]
 
 BATCHABLE_VARIANTS: tuple[str, ...] = ("base", "ind", "ext", "dyn1")
 """Kernel variants the residual path runs (kernel-dyn2's 5-step input history is not batched)."""
@@ -85,7 +85,7 @@ class ResidualController:
         self.steps[rows] = 0
         self.filter.reset_rows(rows)
 
-    def prepare(self, state, command: np.ndarray, rows: np.ndarray | None = None) -> None:
+    def prepare(self, state: StateBatch, command: np.ndarray, rows: np.ndarray | None = None) -> None:
         """Advance the gait clocks and compute the kernel's targets for the coming step.
 
         Args:
@@ -104,7 +104,7 @@ class ResidualController:
         self.normalised_phase[rows] = normalised
         self.kernel_targets[rows] = self.kernel.predict(features).reshape(len(rows), NUM_LEGS, 3)
 
-    def observation_inputs(self, state) -> ObservationInputs:
+    def observation_inputs(self, state: StateBatch) -> ObservationInputs:
         """What the observation of the prepared step is computed from."""
         return ObservationInputs(
             state, self.command, self.filter.value, self.normalised_phase, self.kernel_targets

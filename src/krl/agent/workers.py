@@ -25,9 +25,9 @@ import signal
 from typing import Any
 
 import numpy as np
-from stable_baselines3.common.vec_env import VecEnv
 
 from krl.agent.config import AgentConfig
+from krl.agent.vec_env import BatchVecEnv
 
 
 def worker_cores(workers: int) -> list[int] | None:
@@ -96,7 +96,7 @@ class WorkerError(RuntimeError):
     """An environment worker failed; the message is the worker's error."""
 
 
-class ProcessVecEnv(VecEnv):
+class ProcessVecEnv(BatchVecEnv):
     """``workers`` processes of ``num_envs`` residual environments each.
 
     Args:
@@ -113,7 +113,6 @@ class ProcessVecEnv(VecEnv):
         from krl.agent.env import ResidualVecEnv
 
         probe = ResidualVecEnv(config, 1, seed, kernel_path)
-        self.render_mode = None
         super().__init__(workers * num_envs, probe.observation_space, probe.action_space)
         self.per_worker = num_envs
         context = multiprocessing.get_context("spawn")
@@ -211,17 +210,3 @@ class ProcessVecEnv(VecEnv):
             if process.is_alive():
                 process.terminate()
                 process.join(timeout=2)
-
-    def get_attr(self, attr_name: str, indices=None):
-        count = self.num_envs if indices is None else len(list(np.atleast_1d(indices)))
-        return [getattr(self, attr_name, None)] * count
-
-    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
-        setattr(self, attr_name, value)
-
-    def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs):
-        raise NotImplementedError("ProcessVecEnv has no per-environment objects to call methods on")
-
-    def env_is_wrapped(self, wrapper_class, indices=None):
-        count = self.num_envs if indices is None else len(list(np.atleast_1d(indices)))
-        return [False] * count

@@ -17,7 +17,7 @@ import numpy as np
 
 from krl.control.mpc import MPCError
 from krl.sim.robot import SimulationUnstableError
-from krl.task.reward import EVALUATION_REWARD, RewardParams, reward_terms
+from krl.task.reward import EVALUATION_REWARD, RewardConfig, reward_terms
 from krl.task.runner import Runner, StepRecord
 from krl.task.waypoints import TARGET_TIME_LIMIT, WaypointStep
 from krl.util.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
@@ -51,7 +51,7 @@ class EpisodeScorer:
         reward: the reward function.
     """
 
-    def __init__(self, targets: np.ndarray, reward: RewardParams = EVALUATION_REWARD) -> None:
+    def __init__(self, targets: np.ndarray, reward: RewardConfig = EVALUATION_REWARD) -> None:
         self.targets = np.asarray(targets, dtype=float).reshape(-1, 2)
         self.reward = reward
         self.steps = 0
@@ -108,7 +108,7 @@ def score_walk(
     start_pose: tuple[float, float, float],
     time_limit: float,
     d_min: float,
-    reward: RewardParams = EVALUATION_REWARD,
+    reward: RewardConfig = EVALUATION_REWARD,
     push=None,
     video: str | Path | None = None,
     trace: list[np.ndarray] | None = None,
