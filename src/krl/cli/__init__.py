@@ -2,9 +2,28 @@
 
 One module per command group registers its subcommands (``register(subparsers)``): :mod:`krl.cli.sim`
 (terrains, render, view, bench), :mod:`krl.cli.expert` (expert run, expert plot), :mod:`krl.cli.data`
-(collect), :mod:`krl.cli.kernel` (kernel …) and :mod:`krl.cli.eval` (evaluate, report); what they share
-is in :mod:`krl.cli.common`. This package is the only place argparse lives, and nothing outside it
-imports it.
+(collect), :mod:`krl.cli.kernel` (kernel …), :mod:`krl.cli.agent` (agent …), :mod:`krl.cli.eval`
+(evaluate, report), :mod:`krl.cli.demo`, :mod:`krl.cli.export` and :mod:`krl.cli.reproduce`; what they
+share is in :mod:`krl.cli.common`. This package is the only place argparse lives.
+
+krl's packages, bottom first; each imports only itself and the packages listed before it
+(``tests/test_imports.py`` holds the order and checks it):
+
+- :mod:`krl.util`: rates and periods, atomic output, progress bars, the process pool, hashes, the thesis's
+  protocol constants;
+- :mod:`krl.robots`: the A1 model (MJCF) and its constants;
+- :mod:`krl.sim`: MuJoCo: terrains, the robot, pushes, the batch of simulators, rendering;
+- :mod:`krl.control`: kinematics, gait, commands, filters, swing, the MPC expert;
+- :mod:`krl.task`: the waypoint task, the reward (as data), the runner that walks a controller through it;
+- :mod:`krl.data`: expert datasets: columns, schema, writer, reader, collection;
+- :mod:`krl.kernel`: features, MLP, training, tuning, studies, the kernel as a controller, shipped kernels;
+- :mod:`krl.agent`: the residual agent: action path, environments, PPO training, policy files;
+- :mod:`krl.envs`: Gymnasium registration (``krl/A1-v0``, ``krl/A1Residual-v0``);
+- :mod:`krl.eval`: courses, controllers, metrics, push sweep, reports;
+- :mod:`krl.analysis`: figures;
+- :mod:`krl.bench`: throughput benchmarks;
+- :mod:`krl.apps`: the demo, the viewer, ONNX export, the reproduction plan;
+- :mod:`krl.cli`: this command.
 """
 
 from __future__ import annotations
