@@ -1,6 +1,9 @@
-"""``krl reproduce``: every planned command parses; done steps are skipped; a failure stops and resumes."""
+"""``krl reproduce``: every planned command parses; done steps are skipped; a failure stops and resumes;
+docs/reproduce.md shows the plan as it is."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import pytest
 
@@ -44,3 +47,17 @@ def test_dry_run_prints_the_plan(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "collect-base" in printed and "left: about" in printed
     assert not (tmp_path / "quick").exists()
+
+
+@pytest.mark.parametrize("quick", [False, True])
+def test_the_documented_tables_are_the_plan(quick):
+    """docs/reproduce.md's table for the mode holds each step, in order, and the total of the defaults'."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "reproduce.md").read_text()
+    table = text.split("## Quick")[1 if quick else 0]
+    rows = [line for line in table.splitlines() if line.startswith("| ") and line[2].isdigit()]
+    steps = plan(Path("runs/reproduce"), Path("docs"), quick)
+    assert rows == [
+        f"| {number} | `{step.name}` | {step.makes} | {step.minutes:g} | `{step.command}` |"
+        for number, step in enumerate(steps, start=1)
+    ]
+    assert f"Total: about {sum(step.minutes for step in steps):.0f} min." in table

@@ -1,23 +1,26 @@
 """``krl reproduce``: every table and figure of ``docs/results`` and ``docs/figures`` from nothing.
 
-The pipeline is a list of :class:`Step`: ``krl`` commands in order (expert data -> kernels -> kernel
-studies and figures -> agent -> evaluation -> report), each with the wall time it took on the 2-core
-development machine (``docs/reproduce.md``). A finished step leaves a marker
-(``RUNS/.reproduce/<step>.json``, holding its command), so running ``krl reproduce`` again skips what is
-done and resumes the step that was interrupted (every long command it runs resumes by itself). With
-``--quick`` every step is cut down (tens of waypoints, a few epochs, a short agent training, one push per
-magnitude) into ``RUNS/quick``, whose documents go to ``RUNS/quick/docs``: the same pipeline in well under
-an hour here, never touching ``docs/``.
+The pipeline is a table, :data:`PIPELINE`, of ``krl`` commands in order (expert data -> kernels ->
+kernel studies and figures -> agent -> evaluation -> report), each with the wall time it took on the
+2-core development machine (``docs/reproduce.md``); :func:`plan` fills in the folders and the mode,
+giving one :class:`Step` per row. A finished step leaves a marker (``RUNS/.reproduce/<step>.json``,
+holding its command), so running ``krl reproduce`` again skips what is done and resumes the step that was
+interrupted (every long command it runs resumes by itself). With ``--quick`` every step is cut down (tens
+of waypoints, a few epochs, a short agent training, one push per magnitude) into ``RUNS/quick``, whose
+documents go to ``RUNS/quick/docs``: the same pipeline in well under an hour here, never touching
+``docs/``.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Generic, TypeVar
 
 from krl.util.output import write_atomic
+from krl.util.thesis import COMPARISON_EPOCHS, THESIS_SEEDS
 
 
 @dataclass(frozen=True)
@@ -40,321 +43,290 @@ class Step:
         return "krl " + " ".join(self.argv)
 
 
+T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class ByMode(Generic[T]):
+    """A value that differs between the full pipeline and ``--quick``."""
+
+    full: T
+    quick: T
+
+    def pick(self, quick: bool) -> T:
+        return self.quick if quick else self.full
+
+
+Fragment = str | ByMode[str]
+"""Part of a command: space-separated template tokens (``{runs}``, ``{data}``, ... filled by
+:func:`_places`, ``{config}`` by the row), or one such string per mode ("" for no tokens)."""
+
+
+def _pick(value: Any, quick: bool) -> Any:
+    """``value`` for the mode: one side of a :class:`ByMode`, anything else as it is."""
+    return value.pick(quick) if isinstance(value, ByMode) else value
+
+
+def _fill(value: Any, places: Mapping[str, str]) -> Any:
+    """``value`` (a config: nested dicts) with every string's placeholders filled."""
+    if isinstance(value, str):
+        return value.format(**places)
+    if isinstance(value, dict):
+        return {key: _fill(item, places) for key, item in value.items()}
+    return value
+
+
+@dataclass(frozen=True)
+class Row:
+    """One step of the pipeline's table, in both modes; :meth:`step` makes its :class:`Step`."""
+
+    name: str
+    """File-name-safe name (the marker's)."""
+    makes: str
+    """What it writes, for the plan."""
+    minutes: ByMode[float] | float
+    """Wall time it took (full) or should take (quick) on the 2-core development machine [min]."""
+    argv: tuple[Fragment, ...]
+    """The ``krl`` command, as template fragments."""
+    config: ByMode[dict[str, Any]] | None = None
+    """Settings written as JSON to ``{config}`` (``RUNS/<name>.json``) just before the command runs."""
+
+    def step(self, places: Mapping[str, str], quick: bool) -> Step:
+        """This row with its placeholders filled, for the mode."""
+        places = {**places, "config": f"{places['runs']}/{self.name}.json"}
+        argv = tuple(token.format(**places) for part in self.argv for token in _pick(part, quick).split())
+        config = None
+        if self.config is not None:
+            config = (places["config"], json.dumps(_fill(self.config.pick(quick), places), indent=2) + "\n")
+        return Step(self.name, argv, _pick(self.minutes, quick), self.makes, config)
+
+
 COURSES: tuple[str, ...] = ("tabletop", "seesaw", "stairs", "sinusoid", "flat")
-SEEDS = "150,215,345,556"
+"""The courses pictured in ``docs/figures/courses``."""
+STANCES: tuple[str, ...] = ("0.3", "0.25", "0.2")
+"""τ_stance of Table 4.3's datasets [s]."""
+SEED = str(THESIS_SEEDS[0])
+"""The seed of the agents the pipeline trains (the shipped ones') and of the quick studies' one run."""
+
+
+def _places(runs: str, docs: str) -> dict[str, str]:
+    """What the templates' placeholders stand for, for the run folder ``runs`` and documents ``docs``."""
+    return {
+        "runs": runs,
+        "docs": docs,
+        "data": f"{runs}/data",
+        "seed": SEED,
+        "kernel": f"{runs}/kernel-base/kernel.npz",
+        "agent": f"{runs}/agent-rp-seed{SEED}",
+        "base_agent": f"{runs}/agent-base-seed{SEED}",
+    }
+
+
+def _stance_data(tau: str) -> str:
+    """Template of the folder of Table 4.3's dataset with a stance of ``tau`` seconds."""
+    return "{data}/s" + tau
+
+
+def _collect_stance(tau: str) -> Row:
+    """Expert data of Table 4.3 with a stance of ``tau`` seconds."""
+    return Row(
+        f"collect-stance{tau}",
+        f"Table 4.3's data, τ {tau} s",
+        ByMode(4, 0.5),
+        (
+            f"collect --out {_stance_data(tau)}",
+            "--targets",
+            ByMode("100", "12"),
+            f"--seed 3 --stance-duration {tau}",
+            "--quiet",
+        ),
+    )
+
+
+def _course_picture(course: str) -> Row:
+    """The picture of ``course`` in ``docs/figures/courses``."""
+    return Row(
+        f"course-{course}",
+        f"picture of the {course} course",
+        0.1,
+        (f"render --course {course}", "--out {docs}/figures/courses/" + course + ".png"),
+    )
+
+
+_STUDY: tuple[Fragment, ...] = (
+    "--runs {runs}/studies --threads 1",
+    ByMode("--seeds " + ",".join(str(seed) for seed in THESIS_SEEDS), "--seeds {seed}"),
+    ByMode(f"--epochs {COMPARISON_EPOCHS}", "--epochs 2"),
+    ByMode("--walk-targets 5", "--walk-targets 1"),
+    "--quiet",
+)
+"""The options every kernel study shares."""
+_EVALUATE = "--workers 2 --out {runs}/eval --quiet"
+"""The options both evaluations share."""
+_QUICK_AGENT: dict[str, Any] = {
+    "total_steps": 20000,
+    "checkpoint_every": 10000,
+    "num_envs": 4,
+    "ppo": {"rollout_steps": 4000, "batch_size": 1000, "n_epochs": 3},
+}
+"""A short agent training."""
+_RESIDUAL = {"kernel": "{kernel}"}
+"""The agents' residual part: the kernel the pipeline trained."""
+
+# The pipeline as data, one row per step in order; a pure table, longer than a function may be.
+PIPELINE: tuple[Row, ...] = (
+    Row(
+        "collect-base",
+        "expert data, stance 0.2 s",
+        ByMode(14, 1.5),
+        ("collect --out {data}/base --targets", ByMode("500", "40"), "--seed 0 --quiet"),
+    ),
+    Row(
+        "collect-ext",
+        "kernel-ext's data",
+        ByMode(19, 1),
+        ("collect --out {data}/ext --mode ext --targets", ByMode("500", "20"), "--seed 1 --quiet"),
+    ),
+    Row(
+        "collect-dyn2",
+        "kernel-dyn2's data",
+        ByMode(16, 1),
+        ("collect --out {data}/dyn2 --mode dyn2 --targets", ByMode("500", "20"), "--seed 2 --quiet"),
+    ),
+    *(_collect_stance(tau) for tau in STANCES),
+    Row(
+        "kernel-base",
+        "kernel-base",
+        ByMode(13, 1),
+        (
+            "kernel train --data {data}/base --out {runs}/kernel-base --threads 1",
+            ByMode("", "--epochs 3"),
+            "--quiet",
+        ),
+    ),
+    Row(
+        "kernel-ext",
+        "kernel-ext",
+        ByMode(19, 1),
+        (
+            "kernel train --data {data}/ext --variant ext --out {runs}/kernel-ext --threads 1",
+            ByMode("", "--epochs 3"),
+            "--quiet",
+        ),
+    ),
+    Row(
+        "study-variants",
+        "Table 4.4",
+        ByMode(200, 4),
+        (
+            "kernel study variants --data-base {data}/base --data-ext {data}/ext --data-dyn2 {data}/dyn2",
+            "--out {docs}/results/kernel",
+            *_STUDY,
+        ),
+    ),
+    Row(
+        "study-data-size",
+        "Table 4.5",
+        ByMode(120, 2),
+        (
+            "kernel study data-size --data {data}/base --out {docs}/results/kernel",
+            ByMode("", "--sizes 10,25"),
+            *_STUDY,
+        ),
+    ),
+    Row(
+        "study-stance",
+        "Table 4.3",
+        ByMode(60, 2),
+        (
+            "kernel study stance",
+            *(f"--data-stance {tau}={_stance_data(tau)}" for tau in STANCES),
+            "--out {docs}/results/kernel",
+            *_STUDY,
+        ),
+    ),
+    Row(
+        "tune",
+        "Optuna trials (trials.csv)",
+        ByMode(25, 2),
+        (
+            "kernel tune --data {data}/base --out {runs}/tune",
+            ByMode("--trials 8", "--trials 2"),
+            "--threads 1",
+            ByMode("", "--epochs 2"),
+            "--quiet",
+        ),
+    ),
+    Row(
+        "expert-figures",
+        "Figs. 4.8, 4.15 (MPC), A.2, A.3",
+        ByMode(15, 2),
+        ("expert plot all --out {docs}/figures/expert --seed 0", ByMode("", "--quick")),
+    ),
+    Row(
+        "kernel-figures",
+        "Figs. 4.9-4.13, 4.15",
+        ByMode(15, 2),
+        (
+            "kernel figures all --out {docs}/figures/kernel --model {kernel}",
+            "--ext-model {runs}/kernel-ext/kernel.npz",
+            "--ind-model {runs}/studies/variants/ind-seed{seed}/kernel.npz",
+            ByMode("", "--quick"),
+        ),
+    ),
+    *(_course_picture(course) for course in COURSES),
+    Row(
+        "agent-rp",
+        f"agent-rp (seed {SEED})",
+        ByMode(120, 4),
+        ("agent train --out {agent} --seed {seed} --config {config} --quiet",),
+        config=ByMode({"residual": _RESIDUAL}, {"residual": _RESIDUAL, **_QUICK_AGENT}),
+    ),
+    # agent-base (Table 4.8's reward without the roll and pitch term) as shipped: 50 environments per worker
+    Row(
+        "agent-base",
+        f"agent-base (seed {SEED})",
+        ByMode(74, 4),
+        ("agent train --out {base_agent} --seed {seed} --config {config} --quiet",),
+        config=ByMode(
+            {"residual": _RESIDUAL, "env": {"reward": "base"}, "num_envs": 50, "checkpoint_every": 1_000_000},
+            {"residual": _RESIDUAL, **_QUICK_AGENT, "env": {"reward": "base"}},
+        ),
+    ),
+    Row(
+        "evaluate-courses",
+        "Tables 5.1-5.4 runs",
+        ByMode(14, 6),
+        (
+            "evaluate --controller expert --controller expert:stance=0.3 --controller kernel:{kernel}",
+            "--controller agent:{agent}/policy.npz --controller agent:{base_agent}/policy.npz",
+            "--course thesis --course flat",
+            _EVALUATE,
+        ),
+    ),
+    # 50 attempts per magnitude, as docs/results: the thesis's 10 leave each rate's interval ±0.3 wide
+    Row(
+        "evaluate-pushes",
+        "Table 5.5 runs",
+        ByMode(90, 2),
+        (
+            "evaluate --controller expert --controller kernel:{kernel} --controller agent:{agent}/policy.npz",
+            ByMode("--push-sweep --attempts 50", "--push-sweep --attempts 1"),
+            _EVALUATE,
+        ),
+    ),
+    Row("report", "Tables 5.1-5.5", 0.2, ("report --results {runs}/eval --out {docs}/results",)),
+    Row("agent-curves", "training curves", 0.1, ("agent curves {agent} --out {docs}/figures/agent",)),
+)
+"""Every step, in order (expert data -> kernels -> studies, figures -> agents -> evaluation -> report)."""
 
 
 def plan(runs: Path, docs: Path, quick: bool = False) -> list[Step]:
     """The steps, in order, for the run folder ``runs`` and the documents folder ``docs``."""
     if quick:
         runs, docs = runs / "quick", runs / "quick" / "docs"
-    r, d = str(runs), str(docs)
-    q = quick
-    data = {name: f"{r}/data/{name}" for name in ("base", "ext", "dyn2", "s0.3", "s0.25", "s0.2")}
-    steps = [
-        Step(
-            "collect-base",
-            ("collect", "--out", data["base"], "--targets", "40" if q else "500", "--seed", "0", "--quiet"),
-            1.5 if q else 14,
-            "expert data, stance 0.2 s",
-        ),
-        Step(
-            "collect-ext",
-            (
-                "collect",
-                "--out",
-                data["ext"],
-                "--mode",
-                "ext",
-                "--targets",
-                "20" if q else "500",
-                "--seed",
-                "1",
-                "--quiet",
-            ),
-            1 if q else 19,
-            "kernel-ext's data",
-        ),
-        Step(
-            "collect-dyn2",
-            (
-                "collect",
-                "--out",
-                data["dyn2"],
-                "--mode",
-                "dyn2",
-                "--targets",
-                "20" if q else "500",
-                "--seed",
-                "2",
-                "--quiet",
-            ),
-            1 if q else 16,
-            "kernel-dyn2's data",
-        ),
-    ]
-    for tau in ("0.3", "0.25", "0.2"):
-        steps.append(
-            Step(
-                f"collect-stance{tau}",
-                (
-                    "collect",
-                    "--out",
-                    data[f"s{tau}"],
-                    "--targets",
-                    "12" if q else "100",
-                    "--seed",
-                    "3",
-                    "--stance-duration",
-                    tau,
-                    "--quiet",
-                ),
-                0.5 if q else 4,
-                f"Table 4.3's data, τ {tau} s",
-            )
-        )
-    epochs = ("--epochs", "3") if q else ()
-    steps += [
-        Step(
-            "kernel-base",
-            (
-                "kernel",
-                "train",
-                "--data",
-                data["base"],
-                "--out",
-                f"{r}/kernel-base",
-                "--threads",
-                "1",
-                *epochs,
-                "--quiet",
-            ),
-            1 if q else 13,
-            "kernel-base",
-        ),
-        Step(
-            "kernel-ext",
-            (
-                "kernel",
-                "train",
-                "--data",
-                data["ext"],
-                "--variant",
-                "ext",
-                "--out",
-                f"{r}/kernel-ext",
-                "--threads",
-                "1",
-                *epochs,
-                "--quiet",
-            ),
-            1 if q else 19,
-            "kernel-ext",
-        ),
-    ]
-    study = (
-        "--runs",
-        f"{r}/studies",
-        "--threads",
-        "1",
-        "--seeds",
-        "150" if q else SEEDS,
-        "--epochs",
-        "2" if q else "10",
-        "--walk-targets",
-        "1" if q else "5",
-        "--quiet",
-    )
-    steps += [
-        Step(
-            "study-variants",
-            (
-                "kernel",
-                "study",
-                "variants",
-                "--data-base",
-                data["base"],
-                "--data-ext",
-                data["ext"],
-                "--data-dyn2",
-                data["dyn2"],
-                "--out",
-                f"{d}/results/kernel",
-                *study,
-            ),
-            4 if q else 200,
-            "Table 4.4",
-        ),
-        Step(
-            "study-data-size",
-            (
-                "kernel",
-                "study",
-                "data-size",
-                "--data",
-                data["base"],
-                "--out",
-                f"{d}/results/kernel",
-                *(("--sizes", "10,25") if q else ()),
-                *study,
-            ),
-            2 if q else 120,
-            "Table 4.5",
-        ),
-        Step(
-            "study-stance",
-            (
-                "kernel",
-                "study",
-                "stance",
-                *(a for tau in ("0.3", "0.25", "0.2") for a in ("--data-stance", f"{tau}={data['s' + tau]}")),
-                "--out",
-                f"{d}/results/kernel",
-                *study,
-            ),
-            2 if q else 60,
-            "Table 4.3",
-        ),
-        Step(
-            "tune",
-            (
-                "kernel",
-                "tune",
-                "--data",
-                data["base"],
-                "--out",
-                f"{r}/tune",
-                "--trials",
-                "2" if q else "8",
-                "--threads",
-                "1",
-                *(("--epochs", "2") if q else ()),
-                "--quiet",
-            ),
-            2 if q else 25,
-            "Optuna trials (trials.csv)",
-        ),
-        Step(
-            "expert-figures",
-            (
-                "expert",
-                "plot",
-                "all",
-                "--out",
-                f"{d}/figures/expert",
-                "--seed",
-                "0",
-                *(("--quick",) if q else ()),
-            ),
-            2 if q else 15,
-            "Figs. 4.8, 4.15 (MPC), A.2, A.3",
-        ),
-        Step(
-            "kernel-figures",
-            (
-                "kernel",
-                "figures",
-                "all",
-                "--out",
-                f"{d}/figures/kernel",
-                "--model",
-                f"{r}/kernel-base/kernel.npz",
-                "--ext-model",
-                f"{r}/kernel-ext/kernel.npz",
-                "--ind-model",
-                f"{r}/studies/variants/ind-seed150/kernel.npz",
-                *(("--quick",) if q else ()),
-            ),
-            2 if q else 15,
-            "Figs. 4.9-4.13, 4.15",
-        ),
-    ]
-    steps += [
-        Step(
-            f"course-{name}",
-            ("render", "--course", name, "--out", f"{d}/figures/courses/{name}.png"),
-            0.1,
-            f"picture of the {name} course",
-        )
-        for name in COURSES
-    ]
-    agent = f"{r}/agent-rp-seed150"
-    config: dict = {"residual": {"kernel": f"{r}/kernel-base/kernel.npz"}}
-    if q:
-        config.update(
-            total_steps=20000,
-            checkpoint_every=10000,
-            num_envs=4,
-            ppo={"rollout_steps": 4000, "batch_size": 1000, "n_epochs": 3},
-        )
-    # agent-base (Table 4.8's reward without the roll and pitch term) as shipped: 50 environments per worker
-    base_config: dict = {**config, "env": {"reward": "base"}}
-    if not q:
-        base_config.update(num_envs=50, checkpoint_every=1_000_000)
-    base_agent = f"{r}/agent-base-seed150"
-    for name, out, settings, minutes in (
-        ("agent-rp", agent, config, 120),
-        ("agent-base", base_agent, base_config, 74),
-    ):
-        config_path = f"{r}/{name}.json"
-        steps.append(
-            Step(
-                name,
-                ("agent", "train", "--out", out, "--seed", "150", "--config", config_path, "--quiet"),
-                4 if q else minutes,
-                f"{name} (seed 150)",
-                config=(config_path, json.dumps(settings, indent=2) + "\n"),
-            )
-        )
-    evaluate = ("--workers", "2", "--out", f"{r}/eval", "--quiet")
-    kernel = f"kernel:{r}/kernel-base/kernel.npz"
-    policy = f"agent:{agent}/policy.npz"
-    courses = ("--course", "thesis", "--course", "flat")
-    # 50 attempts per magnitude, as docs/results: the thesis's 10 leave each rate's interval ±0.3 wide
-    pushes = ("--push-sweep", "--attempts", "1" if q else "50")
-    steps += [
-        Step(
-            "evaluate-courses",
-            (
-                "evaluate",
-                "--controller",
-                "expert",
-                "--controller",
-                "expert:stance=0.3",
-                "--controller",
-                kernel,
-                "--controller",
-                policy,
-                "--controller",
-                f"agent:{base_agent}/policy.npz",
-                *courses,
-                *evaluate,
-            ),
-            6 if q else 14,
-            "Tables 5.1-5.4 runs",
-        ),
-        Step(
-            "evaluate-pushes",
-            (
-                "evaluate",
-                "--controller",
-                "expert",
-                "--controller",
-                kernel,
-                "--controller",
-                policy,
-                *pushes,
-                *evaluate,
-            ),
-            2 if q else 90,
-            "Table 5.5 runs",
-        ),
-        Step("report", ("report", "--results", f"{r}/eval", "--out", f"{d}/results"), 0.2, "Tables 5.1-5.5"),
-        Step(
-            "agent-curves", ("agent", "curves", agent, "--out", f"{d}/figures/agent"), 0.1, "training curves"
-        ),
-    ]
-    return steps
+    places = _places(str(runs), str(docs))
+    return [row.step(places, quick) for row in PIPELINE]
 
 
 def _marker(runs: Path, quick: bool, step: Step) -> Path:

@@ -33,6 +33,11 @@ from krl.util.output import write_atomic
 CHECKPOINT_NAME = "checkpoint.pt"
 KERNEL_NAME = "kernel.npz"
 CONFIG_NAME = "config.json"
+MIN_STD = 1e-6
+"""A feature or label whose training standard deviation is below this is constant: it is centred but not
+scaled [its own unit]."""
+VALIDATION_BATCH = 8192
+"""Rows per forward pass when validating (memory only; the result does not depend on it)."""
 
 _COLUMNS = (
     "v_cmd",
@@ -229,9 +234,34 @@ def train_kernel(
 
     out = Path(out_dir)
     dataset_hash = dataset.content_hash
+    this_run = _check_run_folder(out, config, dataset_hash)
+    # Every check of the data comes before the first write, so a refused run leaves --out as it was.
+    data = data or prepare_data(dataset, config)
+    _start_run_folder(out, this_run, config, dataset_hash)
+
+    if config.threads:
+        torch.set_num_threads(config.threads)
+    scaling = _Scaling.fit(data["x_train"], data["y_train"])
+    tensors = _standardise(data, scaling)
+    learner = _build_learner(config, tensors.x_train.shape[1], tensors.y_train.shape[1])
+    checkpoint_path = out / CHECKPOINT_NAME
+    state = _resume(checkpoint_path, this_run, learner) if checkpoint_path.exists() else _fresh_state()
+
+    writer = None
+    if tensorboard:
+        from torch.utils.tensorboard import SummaryWriter
+
+        writer = SummaryWriter(log_dir=str(out / "tb"), purge_step=state["epoch"])
+    _run_epochs(learner, tensors, config, state, this_run, checkpoint_path, writer, progress, on_epoch)
+    if writer is not None:
+        writer.close()
+    return _export(learner.net, state, config, scaling, dataset, dataset_hash, data, out)
+
+
+def _check_run_folder(out: Path, config: TrainConfig, dataset_hash: str) -> str:
+    """The run's hash (:func:`run_hash`); ValueError when ``out`` holds a run of other settings or data."""
     this_run = run_hash(config, dataset_hash)
     config_path = out / CONFIG_NAME
-    checkpoint_path = out / CHECKPOINT_NAME
     if config_path.exists():
         saved = json.loads(config_path.read_text())
         if saved.get("run_hash") != this_run:
@@ -239,42 +269,97 @@ def train_kernel(
                 f"{out} holds a training run with other settings or data (run {saved.get('run_hash')}, "
                 f"this one {this_run}); choose another --out"
             )
-    # Every check of the data comes before the first write, so a refused run leaves --out as it was.
-    data = data or prepare_data(dataset, config)
+    return this_run
+
+
+def _start_run_folder(out: Path, this_run: str, config: TrainConfig, dataset_hash: str) -> None:
+    """Create ``out`` with its ``config.json`` (the run's identity and settings) unless it has one."""
+    config_path = out / CONFIG_NAME
     if not config_path.exists():
         out.mkdir(parents=True, exist_ok=True)
         _write_json(
             config_path, {"run_hash": this_run, "dataset_hash": dataset_hash, "config": config.to_json()}
         )
 
-    if config.threads:
-        torch.set_num_threads(config.threads)
-    x_train, y_train = data["x_train"], data["y_train"]
-    x_val, y_val = data["x_val"], data["y_val"]
-    input_mean, input_std = x_train.mean(0), x_train.std(0)
-    input_std = np.where(input_std < 1e-6, 1.0, input_std)  # constant inputs (e.g. fixed heights)
-    output_mean, output_std = y_train.mean(0), y_train.std(0)
-    output_std = np.where(output_std < 1e-6, 1.0, output_std)
 
-    def normalise(x, y):
-        return (
-            torch.from_numpy(((x - input_mean) / input_std).astype(np.float32)),
-            torch.from_numpy(((y - output_mean) / output_std).astype(np.float32)),
-        )
+@dataclass(frozen=True)
+class _Scaling:
+    """Standardisation fitted on the training set, stored in the kernel: per input, shape (n_in,), and per
+    output, shape (n_out,), in the features' and labels' own units."""
 
-    xt, yt = normalise(x_train, y_train)
-    xv, yv = normalise(x_val, y_val)
-    scale = torch.from_numpy(output_std.astype(np.float32))
+    input_mean: np.ndarray
+    input_std: np.ndarray
+    output_mean: np.ndarray
+    output_std: np.ndarray
+
+    @classmethod
+    def fit(cls, x: np.ndarray, y: np.ndarray) -> _Scaling:
+        """From training features ``x`` (rows, n_in) and labels ``y`` (rows, n_out)."""
+        input_mean, input_std = x.mean(0), x.std(0)
+        input_std = np.where(input_std < MIN_STD, 1.0, input_std)  # constant inputs (e.g. fixed heights)
+        output_mean, output_std = y.mean(0), y.std(0)
+        output_std = np.where(output_std < MIN_STD, 1.0, output_std)
+        return cls(input_mean, input_std, output_mean, output_std)
+
+
+@dataclass(frozen=True)
+class _Tensors:
+    """The standardised training and validation sets as float32 tensors: ``x_*`` (rows, n_in), ``y_*``
+    (rows, n_out); ``scale`` (n_out,) turns a standardised output error back into metres."""
+
+    x_train: Any
+    y_train: Any
+    x_val: Any
+    y_val: Any
+    scale: Any
+
+
+def _standardise(data: dict[str, np.ndarray], scaling: _Scaling) -> _Tensors:
+    """:func:`prepare_data`'s sets, standardised with ``scaling``."""
+    import torch
+
+    def standard(values: np.ndarray, mean: np.ndarray, std: np.ndarray):
+        return torch.from_numpy(((values - mean) / std).astype(np.float32))
+
+    x_mean, x_std = scaling.input_mean, scaling.input_std
+    y_mean, y_std = scaling.output_mean, scaling.output_std
+    return _Tensors(
+        x_train=standard(data["x_train"], x_mean, x_std),
+        y_train=standard(data["y_train"], y_mean, y_std),
+        x_val=standard(data["x_val"], x_mean, x_std),
+        y_val=standard(data["y_val"], y_mean, y_std),
+        scale=torch.from_numpy(scaling.output_std.astype(np.float32)),
+    )
+
+
+@dataclass(frozen=True)
+class _Learner:
+    """The network and everything that moves it: Adam, the learning-rate schedule, the batch-order RNG."""
+
+    net: Any
+    optimizer: Any
+    scheduler: Any
+    generator: Any
+
+
+def _build_learner(config: TrainConfig, n_in: int, n_out: int) -> _Learner:
+    """A freshly initialised network (seeded by ``config.seed``) with its optimiser and schedule."""
+    import torch
 
     torch.manual_seed(config.seed)
-    net = _build_network(config, xt.shape[1], yt.shape[1])
+    net = _build_network(config, n_in, n_out)
     optimizer = torch.optim.Adam(net.parameters(), lr=config.learning_rate)
     last = max(1, config.epochs - 1)
     scheduler = torch.optim.lr_scheduler.LambdaLR(
         optimizer, lambda epoch: 1.0 - (1.0 - config.lr_decay) * min(epoch, last) / last
     )
     generator = torch.Generator().manual_seed(config.seed)
-    state = {
+    return _Learner(net, optimizer, scheduler, generator)
+
+
+def _fresh_state() -> dict[str, Any]:
+    """The loop state before the first epoch (saved in every checkpoint)."""
+    return {
         "epoch": 0,
         "best": float("inf"),
         "best_epoch": -1,
@@ -282,43 +367,30 @@ def train_kernel(
         "history": [],
         "seconds": 0.0,
     }
-    if checkpoint_path.exists():
-        state = _resume(checkpoint_path, this_run, net, optimizer, scheduler, generator)
 
-    writer = None
-    if tensorboard:
-        from torch.utils.tensorboard import SummaryWriter
 
-        writer = SummaryWriter(log_dir=str(out / "tb"), purge_step=state["epoch"])
-
-    def validate() -> float:
-        net.eval()
-        with torch.no_grad():
-            total = 0.0
-            for start in range(0, len(xv), 8192):
-                prediction = net(xv[start : start + 8192])
-                total += float(((prediction - yv[start : start + 8192]).abs() * scale).sum())
-        return total / (len(xv) * yv.shape[1])
-
+def _run_epochs(
+    learner: _Learner,
+    tensors: _Tensors,
+    config: TrainConfig,
+    state: dict[str, Any],
+    this_run: str,
+    checkpoint_path: Path,
+    writer,
+    progress: bool,
+    on_epoch: Callable[[int, float], None] | None,
+) -> None:
+    """Train from ``state`` (updated in place) until ``config.epochs`` or early stopping; after each epoch
+    log it to ``writer`` (a TensorBoard writer, or None), write the checkpoint, then call ``on_epoch``."""
     from krl.util.progress import progress_bar
 
-    batches = (len(xt) + config.batch_size - 1) // config.batch_size
     with progress_bar(progress, unit="epochs") as bar:
         task = bar.add_task(f"kernel-{config.variant}", total=config.epochs, completed=state["epoch"])
         while state["epoch"] < config.epochs and state["epoch"] - state["best_epoch"] <= config.patience:
             started = time.perf_counter()
-            net.train()
-            order = torch.randperm(len(xt), generator=generator)
-            train_loss = 0.0
-            for b in range(batches):
-                index = order[b * config.batch_size : (b + 1) * config.batch_size]
-                loss = (net(xt[index]) - yt[index]).abs().mean()
-                optimizer.zero_grad()
-                loss.backward()
-                optimizer.step()
-                train_loss += float(loss.detach())
-            scheduler.step()
-            val_l1 = validate()
+            train_loss = _train_epoch(learner, tensors, config.batch_size)
+            learner.scheduler.step()
+            val_l1 = _validate(learner.net, tensors)
             epoch = state["epoch"]
             if not np.isfinite(val_l1):
                 raise ValueError(
@@ -326,51 +398,109 @@ def train_kernel(
                     "(try a lower --lr, with another --out)"
                 )
             state["seconds"] += time.perf_counter() - started
-            state["history"].append(
-                {
-                    "epoch": epoch,
-                    "train_loss": train_loss / batches,
-                    "val_l1": val_l1,
-                    "lr": scheduler.get_last_lr()[0],
-                }
-            )
-            if val_l1 < state["best"]:
-                state["best"], state["best_epoch"] = val_l1, epoch
-                state["best_state"] = {k: v.clone() for k, v in net.state_dict().items()}
-            state["epoch"] = epoch + 1
+            _record_epoch(state, learner, train_loss, val_l1)
             if writer is not None:
-                writer.add_scalar("loss/train_normalised_l1", train_loss / batches, epoch)
-                writer.add_scalar("loss/val_l1_m", val_l1, epoch)
-                writer.add_scalar("lr", scheduler.get_last_lr()[0], epoch)
-                writer.flush()
-            _atomic_torch_save(
-                {
-                    "run_hash": this_run,
-                    "net": net.state_dict(),
-                    "optimizer": optimizer.state_dict(),
-                    "scheduler": scheduler.state_dict(),
-                    "generator": generator.get_state(),
-                    "torch_rng": torch.get_rng_state(),
-                    "state": state,
-                },
-                checkpoint_path,
-            )
+                _log_epoch(writer, state["history"][-1])
+            _save_checkpoint(checkpoint_path, this_run, learner, state)
             bar.update(task, advance=1, description=f"kernel-{config.variant} val L1 {val_l1:.2e} m")
             if on_epoch is not None:
                 on_epoch(epoch, val_l1)
-    if writer is not None:
-        writer.close()
 
+
+def _train_epoch(learner: _Learner, tensors: _Tensors, batch_size: int) -> float:
+    """One pass over the training set in a random order; the mean of the batches' standardised L1 losses."""
+    import torch
+
+    net, x, y = learner.net, tensors.x_train, tensors.y_train
+    net.train()
+    order = torch.randperm(len(x), generator=learner.generator)
+    batches = (len(x) + batch_size - 1) // batch_size
+    total = 0.0
+    for b in range(batches):
+        index = order[b * batch_size : (b + 1) * batch_size]
+        loss = (net(x[index]) - y[index]).abs().mean()
+        learner.optimizer.zero_grad()
+        loss.backward()
+        learner.optimizer.step()
+        total += float(loss.detach())
+    return total / batches
+
+
+def _validate(net, tensors: _Tensors) -> float:
+    """Mean absolute error over all outputs of the validation set [m]."""
+    import torch
+
+    x, y = tensors.x_val, tensors.y_val
+    net.eval()
+    with torch.no_grad():
+        total = 0.0
+        for start in range(0, len(x), VALIDATION_BATCH):
+            prediction = net(x[start : start + VALIDATION_BATCH])
+            total += float(((prediction - y[start : start + VALIDATION_BATCH]).abs() * tensors.scale).sum())
+    return total / (len(x) * y.shape[1])
+
+
+def _record_epoch(state: dict[str, Any], learner: _Learner, train_loss: float, val_l1: float) -> None:
+    """Append the epoch that just ran to ``state``'s history, keep the network if it is the best, move on."""
+    epoch = state["epoch"]
+    state["history"].append(
+        {"epoch": epoch, "train_loss": train_loss, "val_l1": val_l1, "lr": learner.scheduler.get_last_lr()[0]}
+    )
+    if val_l1 < state["best"]:
+        state["best"], state["best_epoch"] = val_l1, epoch
+        state["best_state"] = {k: v.clone() for k, v in learner.net.state_dict().items()}
+    state["epoch"] = epoch + 1
+
+
+def _log_epoch(writer, entry: dict[str, float]) -> None:
+    """Write one history entry (:func:`_record_epoch`) to TensorBoard."""
+    epoch = entry["epoch"]
+    writer.add_scalar("loss/train_normalised_l1", entry["train_loss"], epoch)
+    writer.add_scalar("loss/val_l1_m", entry["val_l1"], epoch)
+    writer.add_scalar("lr", entry["lr"], epoch)
+    writer.flush()
+
+
+def _save_checkpoint(path: Path, this_run: str, learner: _Learner, state: dict[str, Any]) -> None:
+    """Everything an interrupted run needs to resume exactly (:func:`_resume`), written atomically."""
+    import torch
+
+    _atomic_torch_save(
+        {
+            "run_hash": this_run,
+            "net": learner.net.state_dict(),
+            "optimizer": learner.optimizer.state_dict(),
+            "scheduler": learner.scheduler.state_dict(),
+            "generator": learner.generator.get_state(),
+            "torch_rng": torch.get_rng_state(),
+            "state": state,
+        },
+        path,
+    )
+
+
+def _export(
+    net,
+    state: dict[str, Any],
+    config: TrainConfig,
+    scaling: _Scaling,
+    dataset,
+    dataset_hash: str,
+    data: dict[str, np.ndarray],
+    out: Path,
+) -> TrainResult:
+    """Load the best epoch's weights into ``net`` and save them, with ``scaling`` and the run's metadata, as
+    ``out/kernel.npz``; the run's result."""
     net.load_state_dict(state["best_state"])
     net.eval()
     kernel = Kernel(
         variant=config.variant,
         network=config.network,
         weights=_export_weights(net, config),
-        input_mean=input_mean.astype(np.float64),
-        input_std=input_std.astype(np.float64),
-        output_mean=output_mean.astype(np.float64),
-        output_std=output_std.astype(np.float64),
+        input_mean=scaling.input_mean.astype(np.float64),
+        input_std=scaling.input_std.astype(np.float64),
+        output_mean=scaling.output_mean.astype(np.float64),
+        output_std=scaling.output_std.astype(np.float64),
         metadata={
             "variant": config.variant,
             "config": config.to_json(),
@@ -398,7 +528,7 @@ def train_kernel(
     )
 
 
-def _resume(checkpoint_path: Path, this_run: str, net, optimizer, scheduler, generator) -> dict[str, Any]:
+def _resume(checkpoint_path: Path, this_run: str, learner: _Learner) -> dict[str, Any]:
     """Restore the network, optimiser, schedule and random states from a checkpoint; return the loop state.
 
     Raises ValueError with one line naming the file when it is not a checkpoint of this run (torch's own
@@ -422,10 +552,10 @@ def _resume(checkpoint_path: Path, this_run: str, net, optimizer, scheduler, gen
     if checkpoint.get("run_hash") != this_run:
         raise ValueError(f"checkpoint {checkpoint_path} belongs to another run; choose another --out")
     try:
-        net.load_state_dict(checkpoint["net"])
-        optimizer.load_state_dict(checkpoint["optimizer"])
-        scheduler.load_state_dict(checkpoint["scheduler"])
-        generator.set_state(checkpoint["generator"])
+        learner.net.load_state_dict(checkpoint["net"])
+        learner.optimizer.load_state_dict(checkpoint["optimizer"])
+        learner.scheduler.load_state_dict(checkpoint["scheduler"])
+        learner.generator.set_state(checkpoint["generator"])
         torch.set_rng_state(checkpoint["torch_rng"])
         return checkpoint["state"]
     except Exception as error:  # missing keys, tensors of other shapes, foreign objects
