@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from krl.analysis.common import velocity_sweep
+from krl.analysis.common import fit_rows, velocity_sweep
 from krl.analysis.kernel.context import FR, RL, FigureError
 from krl.analysis.kernel.driver import make_kernel_figures
 from krl.analysis.kernel.metrics import (
@@ -130,6 +130,13 @@ def test_velocity_sweep_is_the_expert_figures_sweep():
     for axis, value, command in points:
         assert command[("vx", "vy", "wz").index(axis)] == value and sum(map(abs, command)) == abs(value)
     assert [v for a, v, _ in velocity_sweep(quick=True) if a == "wz"] == [-0.5, 0.0, 0.5]
+
+
+def test_fit_rows_fits_one_key_of_the_rows_against_another():
+    rows = [{"value": v, "x_ptp": 0.2 * v + 0.01, "y_ptp": 0.0} for v in (0.0, 0.5, 1.0)]
+    fit = fit_rows(rows, "value", "x_ptp")
+    assert (fit["slope"], fit["offset"], fit["points"]) == pytest.approx((0.2, 0.01, 3))
+    assert np.isnan(fit_rows(rows[:1], "value", "x_ptp")["slope"])
 
 
 # --- quick runs ---------------------------------------------------------------------------------------------

@@ -55,6 +55,11 @@ def fit_line(x: Sequence[float], y: Sequence[float]) -> dict[str, float]:
     }
 
 
+def fit_rows(rows: Sequence[dict[str, Any]], x: str, y: str) -> dict[str, float]:
+    """:func:`fit_line` of the ``y`` values of ``rows`` against their ``x`` values (two keys of each row)."""
+    return fit_line([r[x] for r in rows], [r[y] for r in rows])
+
+
 def velocity_sweep(quick: bool = False) -> list[tuple[str, float, tuple[float, float, float]]]:
     """(axis, commanded value, command) per point of the velocity figures' sweep.
 

@@ -18,7 +18,7 @@ from krl.analysis.common import (
     QUICK_DURATION,
     VELOCITY_AXES,
     VELOCITY_COLUMNS,
-    fit_line,
+    fit_rows,
     hold_velocity,
     max_cross,
     velocity_row,
@@ -78,38 +78,12 @@ def velocity_figure(kernel_path: Path, expert_json: tuple[dict | None, str | Non
 
     Returns ``(table, csv columns, csv rows, matplotlib figure)``.
     """
-    from matplotlib.figure import Figure
-
     duration = QUICK_DURATION if run.quick else DEFAULT_DURATION
     points = velocity_sweep(run.quick)
-    # the zero command appears in all three sweeps: run each distinct command once
-    jobs = list(dict.fromkeys((str(kernel_path), command, duration, run.seed) for _, _, command in points))
-    run.say(f"velocity: {len(jobs)} kernel holds of {duration:g} s, {run.workers} worker(s) ...")
-    outcomes = run_jobs(_kernel_hold, jobs, run.workers, progress="velocity holds" if run.progress else None)
-    by_command = {job[1]: outcome for job, outcome in zip(jobs, outcomes, strict=True)}
+    by_command = _hold_all(kernel_path, points, duration, run)
     expert, expert_source = expert_json
-    expert_rows = {(r["axis"], round(r["commanded"], 6)): r for r in (expert or {}).get("conditions", [])}
-    rows = []
-    for axis, value, command in points:
-        outcome = by_command[command]
-        row = velocity_row(axis, value, outcome)
-        match = expert_rows.get((axis, round(value, 6)))
-        row["expert_mean"] = match[f"{axis}_mean"] if match else None
-        row["expert_std"] = match[f"{axis}_std"] if match else None
-        row["expert_fell"] = match["fell"] if match else None
-        rows.append(row)
-        status = " FELL" if outcome["fell"] else ""
-        run.say(
-            f"  {axis} = {value:+.2f}: realised {outcome['mean'][VELOCITY_AXES.index(axis)]:+.3f}"
-            f"{status} ({outcome['wall_seconds']:.1f} s)",
-        )
-    fits = {}
-    for axis in VELOCITY_AXES:
-        ok = [r for r in rows if r["axis"] == axis and not r["fell"]]
-        fits[axis] = fit_line([r["commanded"] for r in ok], [r[f"{axis}_mean"] for r in ok])
-        fits[axis]["falls"] = sum(1 for r in rows if r["axis"] == axis and r["fell"])
-        fits[axis]["max_abs_cross"] = max_cross(ok, axis)
-        fits[axis]["max_std"] = max((r[f"{axis}_std"] for r in ok), default=float("nan"))
+    rows = _rows(points, by_command, expert, run)
+    fits = {axis: _fit(rows, axis) for axis in VELOCITY_AXES}
     table = {
         "figure": "velocity",
         "thesis_figure": THESIS_FIGURE["velocity"],
@@ -136,55 +110,105 @@ def velocity_figure(kernel_path: Path, expert_json: tuple[dict | None, str | Non
         "conditions": rows,
     }
     csv_columns = (*VELOCITY_COLUMNS, "expert_mean", "expert_std")
+    return table, csv_columns, rows, _draw(rows, fits, duration, run.quick)
+
+
+def _hold_all(kernel_path: Path, points: list, duration: float, run: FigureRun) -> dict:
+    """Each distinct command of the sweep ``points`` held by the kernel for ``duration`` [s] (in
+    ``run.workers`` processes): the :func:`_kernel_hold` outcome per command."""
+    # the zero command appears in all three sweeps: run each distinct command once
+    jobs = list(dict.fromkeys((str(kernel_path), command, duration, run.seed) for _, _, command in points))
+    run.say(f"velocity: {len(jobs)} kernel holds of {duration:g} s, {run.workers} worker(s) ...")
+    outcomes = run_jobs(_kernel_hold, jobs, run.workers, progress="velocity holds" if run.progress else None)
+    return {job[1]: outcome for job, outcome in zip(jobs, outcomes, strict=True)}
+
+
+def _rows(points: list, by_command: dict, expert: dict | None, run: FigureRun) -> list[dict]:
+    """A :func:`~krl.analysis.common.velocity_row` per sweep point, with the ``expert`` table's mean, std
+    and fall at the same point (None where it has none)."""
+    expert_rows = {(r["axis"], round(r["commanded"], 6)): r for r in (expert or {}).get("conditions", [])}
+    rows = []
+    for axis, value, command in points:
+        outcome = by_command[command]
+        row = velocity_row(axis, value, outcome)
+        match = expert_rows.get((axis, round(value, 6)))
+        row["expert_mean"] = match[f"{axis}_mean"] if match else None
+        row["expert_std"] = match[f"{axis}_std"] if match else None
+        row["expert_fell"] = match["fell"] if match else None
+        rows.append(row)
+        status = " FELL" if outcome["fell"] else ""
+        run.say(
+            f"  {axis} = {value:+.2f}: realised {outcome['mean'][VELOCITY_AXES.index(axis)]:+.3f}"
+            f"{status} ({outcome['wall_seconds']:.1f} s)",
+        )
+    return rows
+
+
+def _fit(rows: list[dict], axis: str) -> dict[str, float]:
+    """The line fit of ``axis``'s realised mean against the command over its points that did not fall, with
+    ``falls``, ``max_abs_cross`` and ``max_std``."""
+    ok = [r for r in rows if r["axis"] == axis and not r["fell"]]
+    fit = fit_rows(ok, "commanded", f"{axis}_mean")
+    fit["falls"] = sum(1 for r in rows if r["axis"] == axis and r["fell"])
+    fit["max_abs_cross"] = max_cross(ok, axis)
+    fit["max_std"] = max((r[f"{axis}_std"] for r in ok), default=float("nan"))
+    return fit
+
+
+def _draw(rows: list[dict], fits: dict, duration: float, quick: bool):
+    """The figure: a realised-against-commanded panel per command component."""
+    from matplotlib.figure import Figure
 
     fig = Figure(figsize=(FIG_SIZE[0], FIG_SIZE[1] * 0.75), dpi=FIG_DPI, layout="constrained")
     axes = fig.subplots(1, 3)
     for ax, axis in zip(axes, VELOCITY_AXES, strict=True):
-        sel = [r for r in rows if r["axis"] == axis]
-        x = np.array([r["commanded"] for r in sel])
-        lim = max(abs(x).max(), 1e-3) * 1.15
-        ax.plot([-lim, lim], [-lim, lim], "k--", lw=0.8, label="identity")
-        ex = [
-            (r["commanded"], r["expert_mean"], r["expert_std"]) for r in sel if r["expert_mean"] is not None
-        ]
-        if ex:
-            e = np.array(ex, dtype=float)
-            ax.errorbar(
-                e[:, 0] - 0.01 * lim,
-                e[:, 1],
-                yerr=e[:, 2],
-                fmt="s",
-                ms=3.5,
-                capsize=2,
-                color="C0",
-                label="MPC expert (velocity.json)",
-            )
-        ok = np.array([not r["fell"] for r in sel])
-        mean = np.array([r[f"{axis}_mean"] for r in sel], dtype=float)
-        std = np.array([r[f"{axis}_std"] for r in sel], dtype=float)
-        if ok.any():
-            ax.errorbar(
-                x[ok] + 0.01 * lim,
-                mean[ok],
-                yerr=std[ok],
-                fmt="o",
-                ms=4,
-                capsize=2,
-                color="C1",
-                label="kernel-base: mean ± std",
-            )
-        if (~ok).any():
-            y = np.where(np.isfinite(mean[~ok]), mean[~ok], 0.0)
-            ax.plot(x[~ok], y, "rx", ms=9, mew=2, label="kernel-base fell")
-        fit = fits[axis]
-        label = f"kernel fit: slope {fit['slope']:.2f}, offset {fit['offset']:+.3f}"
-        draw_fit_and_axes(ax, fit, lim, *VELOCITY_NAMES[axis], label)
-        style(ax)
-        ax.legend(fontsize=6, loc="upper left")
+        _draw_panel(ax, axis, [r for r in rows if r["axis"] == axis], fits[axis])
     fig.suptitle(
         f"Thesis {THESIS_FIGURE['velocity']}: realised vs commanded velocity, kernel-base controller vs MPC "
         f"expert ({duration:g} s holds, measured from {HOLD_RAMP + HOLD_SETTLE:g} s"
-        f"{', quick' if run.quick else ''})",
+        f"{', quick' if quick else ''})",
         fontsize=9,
     )
-    return table, csv_columns, rows, fig
+    return fig
+
+
+def _draw_panel(ax, axis: str, sel: list[dict], fit: dict[str, float]) -> None:
+    """The panel of ``axis`` from its rows ``sel``: the identity, the expert's and the kernel's mean ± std
+    (side by side), the kernel's falls as crosses and its fitted line."""
+    x = np.array([r["commanded"] for r in sel])
+    lim = max(abs(x).max(), 1e-3) * 1.15
+    ax.plot([-lim, lim], [-lim, lim], "k--", lw=0.8, label="identity")
+    ex = [(r["commanded"], r["expert_mean"], r["expert_std"]) for r in sel if r["expert_mean"] is not None]
+    if ex:
+        e = np.array(ex, dtype=float)
+        ax.errorbar(
+            e[:, 0] - 0.01 * lim,
+            e[:, 1],
+            yerr=e[:, 2],
+            fmt="s",
+            ms=3.5,
+            capsize=2,
+            color="C0",
+            label="MPC expert (velocity.json)",
+        )
+    ok = np.array([not r["fell"] for r in sel])
+    mean = np.array([r[f"{axis}_mean"] for r in sel], dtype=float)
+    std = np.array([r[f"{axis}_std"] for r in sel], dtype=float)
+    if ok.any():
+        ax.errorbar(
+            x[ok] + 0.01 * lim,
+            mean[ok],
+            yerr=std[ok],
+            fmt="o",
+            ms=4,
+            capsize=2,
+            color="C1",
+            label="kernel-base: mean ± std",
+        )
+    if (~ok).any():
+        y = np.where(np.isfinite(mean[~ok]), mean[~ok], 0.0)
+        ax.plot(x[~ok], y, "rx", ms=9, mew=2, label="kernel-base fell")
+    label = f"kernel fit: slope {fit['slope']:.2f}, offset {fit['offset']:+.3f}"
+    draw_fit_and_axes(ax, fit, lim, *VELOCITY_NAMES[axis], label)
+    style(ax)
+    ax.legend(fontsize=6, loc="upper left")

@@ -35,8 +35,6 @@ def walk_gait_figure(kernel, ind_kernel, run: FigureRun):
 
     Returns ``(table, csv columns, csv rows, matplotlib figure)``.
     """
-    from matplotlib.figure import Figure
-
     from krl.control.gait import gait_params
 
     params = expert_params(kernel, gait="walk", stance_duration=WALK_STANCE)
@@ -45,20 +43,11 @@ def walk_gait_figure(kernel, ind_kernel, run: FigureRun):
     steady = HOLD_RAMP + HOLD_SETTLE
     run.say(f"walk-gait: expert (walk gait) holding {WALK_COMMAND} for {duration:g} s ...")
     rec = record_expert(params, run.seed, command=np.array(WALK_COMMAND), duration=duration)
-    keep = rec["time"] > steady
     columns = kernel_columns(rec["command"], rec["normalised"], params.step_height, params.ride_height)
     models = {"kernel-base": predict_feet(kernel, columns)}
     if ind_kernel is not None:
         models["kernel-ind"] = predict_feet(ind_kernel, columns)
-    labels = rec["labels"]
-    stance = rec["stance"][:, FR]
-    results = {}
-    for name, prediction in models.items():
-        results[name] = {
-            "l1_fr": l1_per_axis(prediction[keep, FR], labels[keep, FR]),
-            "l1_all_legs": l1_per_axis(prediction[keep], labels[keep]),
-            **stance_lift_metrics(prediction[keep, FR, 2], labels[keep, FR, 2], stance[keep]),
-        }
+    results = _results(models, rec, rec["time"] > steady)
     table = {
         "figure": "walk-gait",
         "thesis_figure": THESIS_FIGURE["walk-gait"],
@@ -88,8 +77,30 @@ def walk_gait_figure(kernel, ind_kernel, run: FigureRun):
         ),
         "results": results,
     }
-    t = rec["time"]
-    csv_columns = (
+    csv_columns, rows = _csv(rec, models)
+    return table, csv_columns, rows, _draw(rec, models, results, walk)
+
+
+def _results(models: dict[str, np.ndarray], rec: dict, keep: np.ndarray) -> dict[str, dict]:
+    """Per model (name: predicted feet (N, 4, 3)), over the steps ``keep``: L1 per axis of the FR foot and
+    of all legs against the labels of ``rec``, and the FR stance/lift metrics."""
+    labels = rec["labels"]
+    stance = rec["stance"][:, FR]
+    return {
+        name: {
+            "l1_fr": l1_per_axis(prediction[keep, FR], labels[keep, FR]),
+            "l1_all_legs": l1_per_axis(prediction[keep], labels[keep]),
+            **stance_lift_metrics(prediction[keep, FR, 2], labels[keep, FR, 2], stance[keep]),
+        }
+        for name, prediction in models.items()
+    }
+
+
+def _csv(rec: dict, models: dict[str, np.ndarray]) -> tuple[tuple[str, ...], list[dict]]:
+    """The CSV columns and rows: every :data:`CSV_DECIMATION`-th control step's FR stance flag, FR label and
+    each model's FR prediction (columns ``base_x``, ``ind_x``, ...)."""
+    t, labels, stance = rec["time"], rec["labels"], rec["stance"][:, FR]
+    columns = (
         "time",
         "fr_stance",
         "label_x",
@@ -105,35 +116,37 @@ def walk_gait_figure(kernel, ind_kernel, run: FigureRun):
             for name, prediction in models.items():
                 row[f"{name.split('-')[1]}_{axis}"] = prediction[k, FR, i]
         rows.append(row)
+    return columns, rows
+
+
+def _draw(rec: dict, models: dict[str, np.ndarray], results: dict, walk):
+    """The figure: FR x, y, z over the last :data:`EXCERPT_CYCLES` cycles of the ``walk`` gait, the expert's
+    label against each model's prediction, the FR swing shaded."""
+    from matplotlib.figure import Figure
 
     fig = Figure(figsize=FIG_SIZE, dpi=FIG_DPI, layout="constrained")
     axes = fig.subplots(3, 1, sharex=True)
+    t, stance = rec["time"], rec["stance"][:, FR]
     start = (t[-1] if len(t) else 0.0) - EXCERPT_CYCLES * walk.step_duration
     pick = t >= start
     colors = {"kernel-base": "C1", "kernel-ind": "C2"}
     for i, (ax, axis) in enumerate(zip(axes, AXES, strict=True)):
         shade(ax, t[pick], ~stance[pick], label="FR swing (walk gait)")
-        ax.plot(t[pick], labels[pick, FR, i], color="k", lw=1.2, label="MPC expert label (walk gait)")
+        ax.plot(t[pick], rec["labels"][pick, FR, i], color="k", lw=1.2, label="MPC expert label (walk gait)")
         for name, prediction in models.items():
             l1 = results[name]["l1_fr"][axis]
-            ax.plot(
-                t[pick],
-                prediction[pick, FR, i],
-                color=colors[name],
-                lw=1.1,
-                ls="--",
-                label=f"{name} (L1 {1e3 * l1:.1f} mm)",
-            )
+            label = f"{name} (L1 {1e3 * l1:.1f} mm)"
+            ax.plot(t[pick], prediction[pick, FR, i], color=colors[name], lw=1.1, ls="--", label=label)
         ax.set(ylabel=f"FR {axis} [m]")
         ax.set_title(f"({'abc'[i]}) {axis}", loc="left")
         style(ax)
         ax.legend(fontsize=6, loc="upper left", ncol=len(models) + 2)
     axes[-1].set_xlabel("time [s]")
-    note = "" if ind_kernel is not None else " (no kernel-ind file given)"
+    note = "" if "kernel-ind" in models else " (no kernel-ind file given)"
     fig.suptitle(
         f"Thesis {THESIS_FIGURE['walk-gait']}: FR foot with the walk gait's phases "
         f"(r_swing {walk.swing_ratio:g}, τ_stance {WALK_STANCE:g} s), command v_x = {WALK_COMMAND[0]:g} m/s"
         f"\nkernels vs the MPC expert walking with that gait{note}; last {EXCERPT_CYCLES} cycles",
         fontsize=9,
     )
-    return table, csv_columns, rows, fig
+    return fig
