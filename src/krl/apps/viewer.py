@@ -63,7 +63,9 @@ class LiveSession:
         seed: seed of the keyboard pushes' directions and points.
     """
 
-    def __init__(self, sim, controller, waypoints=(), start=None, d_min: float = 0.5, seed: int = 0) -> None:
+    def __init__(
+        self, sim, controller, waypoints=(), start=None, d_min: float = CommandParams.d_min, seed: int = 0
+    ) -> None:
         self.sim = sim
         self.controller = controller
         self.waypoints = np.asarray(waypoints, dtype=float).reshape(-1, 2)

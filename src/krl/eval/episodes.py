@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from krl.control.commands import CommandParams
 from krl.control.mpc import MPCError
 from krl.sim.robot import SimulationUnstableError
 from krl.task.reward import EVALUATION_REWARD, RewardConfig, reward_terms
@@ -124,8 +125,6 @@ def score_walk(
     """
     from dataclasses import replace
 
-    from krl.control.commands import CommandParams
-
     scorer = EpisodeScorer(targets, reward)
     recorder = None
     if video is not None:
@@ -191,7 +190,7 @@ class PushSweep:
     """The push starts at a time ~ U(window) [s], while the robot walks."""
     time_limit: float = TARGET_TIME_LIMIT
     """Time allowed to reach the waypoint [s]."""
-    d_min: float = 0.5
+    d_min: float = CommandParams.d_min
     """Waypoint threshold [m]."""
 
     def __post_init__(self) -> None:
