@@ -60,3 +60,38 @@ def test_the_ext_kernel_alone(tmp_path, capsys):
         _run(files["kernel"], "features", features), kernel.predict(features), atol=1e-5, rtol=1e-5
     )
     assert "policy" not in files
+
+
+def test_shipped_names_resolve_for_the_policy_and_its_kernel(tmp_path, capsys):
+    from krl.kernel.registry import shipped_model_path
+    from krl.util.hashing import file_sha256
+
+    out = tmp_path / "onnx"
+    assert main(["export", "--out", str(out), "--policy", "rp", "--kernel", "base", "--json"]) == 0
+    files = json.loads(capsys.readouterr().out)
+    contract = json.loads(Path(files["contract"]).read_text())
+    assert contract["kernel"]["sha256"] == file_sha256(shipped_model_path("base"))
+    assert contract["policy"]["action"]["size"] == 12
+    before = {path.name: path.read_bytes() for path in out.iterdir()}
+    assert main(["export", "--out", str(out), "--policy", "rp", "--kernel", "ext"]) == 2
+    err = capsys.readouterr().err
+    assert "not the kernel this policy corrects" in err and err.count("\n") == 1
+    assert {path.name: path.read_bytes() for path in out.iterdir()} == before
+
+
+def test_a_kernel_only_export_never_leaves_an_unlisted_policy_beside_it(tmp_path, capsys):
+    """A policy.onnx of an earlier export is refused, not kept unlisted in contract.json nor deleted."""
+    policy = make_policy(AgentConfig(), scale=0.3, seed=1).save(tmp_path / "agent-x.npz")
+    out = tmp_path / "onnx"
+    assert main(["export", "--out", str(out), "--policy", str(policy)]) == 0
+    capsys.readouterr()
+    before = {path.name: path.read_bytes() for path in out.iterdir()}
+    assert main(["export", "--out", str(out), "--kernel", "ext"]) == 2
+    err = capsys.readouterr().err
+    assert f"{out / 'policy.onnx'}" in err and "kernel-only" in err and err.count("\n") == 1
+    assert {path.name: path.read_bytes() for path in out.iterdir()} == before
+    (out / "policy.onnx").unlink()
+    assert main(["export", "--out", str(out), "--kernel", "ext", "--json"]) == 0
+    contract = json.loads((out / "contract.json").read_text())
+    assert "policy" not in contract
+    assert sorted(path.name for path in out.iterdir()) == ["contract.json", "kernel.onnx"]

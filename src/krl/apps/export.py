@@ -11,6 +11,10 @@ The graphs are built from the same NumPy arrays krl's own inference uses (``Kern
   action's meaning and bounds, the residual bound [m], the filter's α, the control and physics steps, the
   foot and joint order, and the SHA-256 of the kernel and policy files.
 
+An export leaves its folder consistent: every graph is built before the first file is written, the contract
+is written last, and a kernel-only export refuses a folder that holds a ``policy.onnx`` (of an earlier
+export), which its contract would not list; krl does not delete a file it was not asked to.
+
 ``onnx`` and ``onnxruntime`` are an optional extra (``pip install -e ".[export]"``).
 """
 
@@ -26,6 +30,18 @@ from krl.util.output import write_atomic
 
 OPSET = 17
 """ONNX opset of the exported graphs."""
+
+KERNEL_FILE = "kernel.onnx"
+"""The kernel's graph, in the export folder."""
+
+POLICY_FILE = "policy.onnx"
+"""The policy's graph, in the export folder."""
+
+CONTRACT_FILE = "contract.json"
+"""The contract, in the export folder."""
+
+DEFAULT_KERNEL = "base"
+"""The shipped kernel exported when neither a policy nor a kernel is given."""
 
 
 def _onnx():
@@ -111,6 +127,8 @@ def kernel_onnx(kernel):
 
 def policy_onnx(policy):
     """The policy (observation normaliser, tanh MLP, action clip) as an ONNX model."""
+    from krl.agent.config import ACTION_SIZE
+
     graph = _Graph("observation")
     scale = 1.0 / np.sqrt(policy.obs_var + policy.obs_epsilon)
     graph.affine(scale, -policy.obs_mean * scale)
@@ -120,11 +138,12 @@ def policy_onnx(policy):
         if index < len(policy.layers) - 1:
             graph.op("Tanh")
     graph.clip(-1.0, 1.0)
-    return graph.model("observation", policy.observation_size, "action", 12, "krl residual policy")
+    return graph.model("observation", policy.observation_size, "action", ACTION_SIZE, "krl residual policy")
 
 
 def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = None) -> dict[str, Any]:
     """What the exported graphs mean (module docstring)."""
+    from krl.agent.config import ACTION_SIZE
     from krl.agent.observation import layout
     from krl.kernel.features import input_names
     from krl.robots.a1.constants import JOINT_NAMES, LEG_NAMES
@@ -140,7 +159,7 @@ def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = 
         "foot_order": list(LEG_NAMES),
         "joint_order": list(JOINT_NAMES),
         "kernel": {
-            "file": "kernel.onnx",
+            "file": KERNEL_FILE,
             "variant": kernel.variant,
             "sha256": file_sha256(kernel_path),
             "inputs": input_names(kernel.variant),
@@ -150,14 +169,14 @@ def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = 
     if policy is not None:
         residual = policy.config.residual
         document["policy"] = {
-            "file": "policy.onnx",
+            "file": POLICY_FILE,
             "sha256": file_sha256(policy_path),
             "observation": [
                 {"name": r["name"], "start": r["start"], "stop": r["stop"], "unit": r["unit"]}
                 for r in layout(policy.config.observation.features)
             ],
             "action": {
-                "size": 12,
+                "size": ACTION_SIZE,
                 "bounds": [-1.0, 1.0],
                 "meaning": "per foot (foot_order) an (x, y, z) base-frame residual, times residual_bound",
                 "residual_bound_m": list(residual.residual_bound),
@@ -170,36 +189,49 @@ def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = 
     return document
 
 
-def export(out: str | Path, policy: str | None = None, kernel: str | None = None) -> dict[str, Any]:
-    """Write the ONNX files and the contract into ``out``. ``policy``: a shipped agent's name or a policy
-    file (its kernel is exported with it); ``kernel``: a shipped kernel's name or a kernel file (when no
-    policy is given; default ``base``)."""
+def _load(policy: str | None, kernel: str | None) -> tuple[Any, Path, Any, Path | None]:
+    """The policy (or None) and the kernel to export, with their files: ``(kernel, kernel file, policy,
+    policy file)``. Names of shipped models (``base``, ``ext``; ``rp``, ``base``) resolve to their files."""
     from krl.agent.policy import check_kernel_file, load_policy, policy_artifacts
     from krl.kernel.model import load_kernel
     from krl.kernel.registry import resolve_model
 
-    out = Path(out)
+    kernel_file = None if kernel is None else resolve_model(kernel)
     loaded_policy, policy_path = None, None
     if policy is not None:
         _, files = policy_artifacts(policy)
         if len(files) > 1:
             raise ValueError(f"{policy} holds one policy per seed: export one file")
         policy_path = files[0][1]
-        loaded_policy = load_policy(policy_path, kernel)
-        kernel_path = check_kernel_file(loaded_policy, kernel, policy_path)
+        loaded_policy = load_policy(policy_path, check_kernel=False)
+        kernel_path = check_kernel_file(loaded_policy, kernel_file, policy_path)
     else:
-        kernel_path = resolve_model(kernel or "base")
-    loaded_kernel = load_kernel(kernel_path)
-    written = {}
-    path = out / "kernel.onnx"
-    write_atomic(path, kernel_onnx(loaded_kernel).SerializeToString())
-    written["kernel"] = str(path)
+        kernel_path = kernel_file or resolve_model(DEFAULT_KERNEL)
+    return load_kernel(kernel_path), kernel_path, loaded_policy, policy_path
+
+
+def export(out: str | Path, policy: str | None = None, kernel: str | None = None) -> dict[str, Any]:
+    """Write the ONNX files and the contract into ``out``. ``policy``: a shipped agent's name or a policy
+    file (its kernel is exported with it); ``kernel``: a shipped kernel's name or a kernel file (the
+    policy's, checked by SHA-256; without a policy, default :data:`DEFAULT_KERNEL`).
+
+    Raises ValueError (one line), before anything is written, for a missing or mismatched file, and for a
+    kernel-only export into a folder that holds a ``policy.onnx`` (module docstring).
+    """
+    out = Path(out)
+    loaded_kernel, kernel_path, loaded_policy, policy_path = _load(policy, kernel)
+    if loaded_policy is None and (out / POLICY_FILE).exists():
+        raise ValueError(
+            f"{out / POLICY_FILE} is left from an earlier export, and this kernel-only export's "
+            f"{CONTRACT_FILE} would not list it: delete it or export into another folder"
+        )
+    outputs = {"kernel": (KERNEL_FILE, kernel_onnx(loaded_kernel).SerializeToString())}
     if loaded_policy is not None:
-        path = out / "policy.onnx"
-        write_atomic(path, policy_onnx(loaded_policy).SerializeToString())
-        written["policy"] = str(path)
-    path = out / "contract.json"
+        outputs["policy"] = (POLICY_FILE, policy_onnx(loaded_policy).SerializeToString())
     document = contract(loaded_kernel, kernel_path, loaded_policy, policy_path)
-    write_atomic(path, json.dumps(document, indent=2) + "\n")
-    written["contract"] = str(path)
+    outputs["contract"] = (CONTRACT_FILE, json.dumps(document, indent=2) + "\n")
+    written = {}
+    for role, (name, data) in outputs.items():  # the contract last
+        write_atomic(out / name, data)
+        written[role] = str(out / name)
     return written

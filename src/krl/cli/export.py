@@ -1,4 +1,8 @@
-"""``krl export``: the kernel and the agent's policy as ONNX, with their JSON contract."""
+"""``krl export``: the kernel and the agent's policy as ONNX, with their JSON contract.
+
+A kernel-only export refuses a folder that holds a ``policy.onnx`` of an earlier export (its contract would
+not list it); delete that file or choose another ``--out`` (:mod:`krl.apps.export`).
+"""
 
 from __future__ import annotations
 
@@ -8,6 +12,7 @@ from krl.cli.common import emit
 
 
 def run_export(args: argparse.Namespace) -> int:
+    """Export what the options name and print the files written."""
     from krl.apps.export import export
 
     emit(export(args.out, policy=args.policy, kernel=args.kernel), args.json)
@@ -15,11 +20,16 @@ def run_export(args: argparse.Namespace) -> int:
 
 
 def register(subparsers) -> None:
+    """Add ``krl export`` to the main parser's subcommands."""
     p = subparsers.add_parser(
         "export",
         help="the kernel and the agent's policy as ONNX, with a JSON contract (needs the export extra)",
     )
-    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument(
+        "--out",
+        required=True,
+        help="output folder; a kernel-only export refuses one that holds a policy.onnx (delete it first)",
+    )
     p.add_argument(
         "--policy", help="shipped agent (rp, base) or a policy file; its kernel is exported with it"
     )

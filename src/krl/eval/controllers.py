@@ -23,8 +23,13 @@ expert's is made of its options; a shipped model's is its name (``kernel-base``,
 ``kernel-mine``; a file named ``kernel.npz``, what ``krl kernel train`` writes, takes its folder's name),
 and where that name is a shipped model's, the first :data:`LABEL_HASH_DIGITS` hex digits of the file's
 SHA-256 follow (``kernel:X/kernel-base.npz`` is ``kernel-base-3fa2c1``), so a user's file never takes a
-shipped model's results or its row in the report. Two different files that still share a label in one
-call are refused by :func:`distinct_controllers`.
+shipped model's results or its row in the report.
+
+A controller is known by its kind, options and files' content (:attr:`ControllerSpec.identity`), not by
+its files' paths: one file given several ways in one call (``agent``, ``agent:rp``,
+``agent:PATH/agent-rp.npz``, or a byte-identical copy of it) is one controller, evaluated once under the
+label of the first spelling (:func:`distinct_controllers`). Two files of different content that still share
+a label in one call are refused there.
 """
 
 from __future__ import annotations
@@ -83,6 +88,12 @@ class ControllerSpec:
     def seeds(self) -> tuple[int, ...]:
         """The training seeds of per-seed artifacts (empty for other controllers)."""
         return tuple(a.seed for a in self.artifacts if a.seed is not None)
+
+    @property
+    def identity(self) -> tuple[Any, ...]:
+        """What makes two specs one controller: kind, options and the files' content with their seeds (not
+        the files' paths, nor the label)."""
+        return (self.kind, self.options, tuple((a.seed, a.sha256) for a in self.artifacts))
 
     @property
     def content_hash(self) -> str | None:
@@ -242,16 +253,22 @@ def _user_label(kind: str, name: str, shipped: tuple[str, ...], sha256: str) -> 
 
 
 def distinct_controllers(specs: Sequence[ControllerSpec]) -> list[ControllerSpec]:
-    """The specs without repeats (equal specs, e.g. ``kernel`` and ``kernel:base``), in order; two different
-    controllers of one label are a :class:`ControllerSpecError`, since results are stored by label."""
-    kept: dict[str, ControllerSpec] = {}
+    """The specs without repeats, in order: specs of one :attr:`ControllerSpec.identity` (``kernel`` and
+    ``kernel:base``; ``agent`` and ``agent:PATH/agent-rp.npz``, or a byte-identical copy) are one
+    controller, kept under its first spec's label. Two different controllers of one label are a
+    :class:`ControllerSpecError`, since results are stored by label."""
+    kept: dict[tuple[Any, ...], ControllerSpec] = {}
+    labels: dict[str, ControllerSpec] = {}
     for spec in specs:
-        other = kept.setdefault(spec.label, spec)
-        if other != spec:
+        if spec.identity in kept:
+            continue
+        other = labels.setdefault(spec.label, spec)
+        if other is not spec:
             raise ControllerSpecError(
                 f"two different controllers are labelled {spec.label!r} ({_origin(other)} and "
                 f"{_origin(spec)}); results are stored by label, so give one of them another name"
             )
+        kept[spec.identity] = spec
     return list(kept.values())
 
 

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from krl.eval.controllers import ControllerSpec
+from krl.eval.controllers import ControllerSpec, ControllerSpecError
 from krl.eval.courses import Course
 from krl.eval.episodes import PushSweep, score_push_attempt, score_walk
 from krl.util.output import write_atomic
@@ -78,8 +78,14 @@ def course_tasks(
     video_all: bool = False,
 ) -> list[Task]:
     """Every (course, start[, seed]) run. Seeds count only for seed-dependent controllers; videos are
-    made of each course's first run, or of every run with ``video_all``."""
+    made of each course's first run, or of every run with ``video_all``.
+
+    Raises :class:`ControllerSpecError` for a seed a per-seed controller holds no policy for (here, so the
+    call is refused before anything is written).
+    """
     run_seeds: Sequence[int | None] = seeds if spec.seeded else [None]
+    for seed in seeds if spec.seeded and courses else ():
+        spec.artifact(seed)
     tasks = []
     for course in courses:
         first = True
@@ -95,7 +101,16 @@ def course_tasks(
 
 
 def push_tasks(spec: ControllerSpec, sweep: PushSweep, video_dir: Path | None = None) -> list[Task]:
-    """Every (magnitude, attempt) of the sweep; a video of attempt 0 at each magnitude if asked."""
+    """Every (magnitude, attempt) of the sweep; a video of attempt 0 at each magnitude if asked.
+
+    Raises :class:`ControllerSpecError` for a per-seed controller: the sweep's runs have no seed to choose
+    one of its policies by.
+    """
+    if spec.seeded:
+        raise ControllerSpecError(
+            f"controller {spec.label} holds one policy per seed ({', '.join(map(str, spec.seeds))}), but the "
+            "push sweep scores one policy: give one of its files"
+        )
     tasks = []
     for magnitude in sweep.magnitudes:
         for attempt in range(sweep.attempts):

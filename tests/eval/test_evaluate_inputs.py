@@ -1,0 +1,124 @@
+"""krl evaluate's inputs: checked before anything is written; a controller is known by its files' content."""
+
+import json
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "agent"))
+from agent_fakes import make_policy
+
+from krl.agent.config import AgentConfig
+from krl.agent.policy import shipped_policy_dir
+from krl.cli import main
+from krl.eval.controllers import ControllerSpecError, distinct_controllers, parse_controller
+from krl.kernel.registry import shipped_model_path
+
+TINY = """
+format = 1
+name = "tiny"
+time_limit = 0.1
+d_min = 0.5
+waypoints = [[3.0, 0.0]]
+starts = [[0.0, 0.0, 0.0]]
+
+[terrain]
+name = "flat"
+"""
+
+SHIPPED_RP = shipped_policy_dir() / "agent-rp.npz"
+
+
+@pytest.fixture
+def tiny(tmp_path):
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY)
+    return path
+
+
+def evaluate_argv(out, *options):
+    """``krl evaluate`` with ``options``, one worker, quiet, JSON summary, results in ``out``."""
+    return ["evaluate", *options, "--out", str(out), "--workers", "1", "--quiet", "--json"]
+
+
+def per_seed_folder(folder: Path, seeds) -> Path:
+    """A run folder of per-seed policies (as ``krl agent train`` over several seeds leaves them)."""
+    folder.mkdir(parents=True)
+    for seed in seeds:
+        make_policy(AgentConfig(), seed=seed).save(folder / f"policy-seed{seed}.npz")
+    return folder
+
+
+def copy_of(source: Path, target: Path) -> Path:
+    """A byte-identical copy of ``source`` at ``target``."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copy(source, target)
+    return target
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        (["--course", "TINY", "--seeds", "150"], "no policy for seed 150 (has seeds 1, 2)"),
+        (["--push-sweep", "--attempts", "1", "--magnitudes", "300"], "holds one policy per seed"),
+    ],
+)
+def test_a_run_without_its_policy_is_refused_before_anything_is_written(
+    tmp_path, tiny, capsys, options, message
+):
+    folder = per_seed_folder(tmp_path / "runs" / "mine", [1, 2])
+    out = tmp_path / "out"
+    options = [str(tiny) if option == "TINY" else option for option in options]
+    assert main(evaluate_argv(out, "--controller", f"agent:{folder}", *options)) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_controllers_of_no_file_still_make_their_tasks(tiny):
+    from krl.eval import evaluate
+    from krl.eval.courses import load_course
+
+    for text in ("expert", "kernel", "agent"):
+        tasks = evaluate.course_tasks(parse_controller(text), [load_course(tiny)], [150, 215])
+        assert [task.key for task in tasks] == ["tiny/start0"]
+
+
+@pytest.mark.parametrize(
+    "spellings",
+    [
+        ["agent", f"agent:{SHIPPED_RP}"],
+        ["agent", "agent:rp", "agent:COPY/agent-rp.npz"],
+        [f"agent:{SHIPPED_RP}", "agent:COPY/agent-rp.npz", "agent:OTHER/agent-rp.npz"],
+        ["kernel", f"kernel:{shipped_model_path('base')}", "kernel:COPY/kernel-base.npz"],
+    ],
+)
+def test_one_file_given_several_ways_is_one_controller_under_its_first_label(tmp_path, spellings):
+    """By name, by path, or as a byte-identical copy: one controller, labelled as first given."""
+    copy_of(SHIPPED_RP, tmp_path / "COPY" / "agent-rp.npz")
+    copy_of(SHIPPED_RP, tmp_path / "OTHER" / "agent-rp.npz")
+    copy_of(shipped_model_path("base"), tmp_path / "COPY" / "kernel-base.npz")
+    folders = {name: str(tmp_path / name) for name in ("COPY", "OTHER")}
+    texts = [text.replace("COPY", folders["COPY"]).replace("OTHER", folders["OTHER"]) for text in spellings]
+    specs = [parse_controller(text) for text in texts]
+    assert distinct_controllers(specs) == [specs[0]]
+
+
+def test_two_policies_of_one_label_are_still_refused(tmp_path):
+    paths = []
+    for run, seed in (("a", 1), ("b", 2)):
+        paths.append(make_policy(AgentConfig(), scale=0.1, seed=seed).save(tmp_path / run / "agent-mine.npz"))
+    specs = [parse_controller(f"agent:{path}") for path in paths]
+    with pytest.raises(ControllerSpecError, match="two different controllers are labelled 'agent-mine'"):
+        distinct_controllers(specs)
+
+
+def test_the_shipped_policy_and_its_path_are_evaluated_once(tmp_path, tiny, capsys):
+    out = tmp_path / "out"
+    controllers = ["--controller", "agent", "--controller", f"agent:{SHIPPED_RP}"]
+    assert main(evaluate_argv(out, *controllers, "--course", str(tiny))) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert (summary["runs"], summary["ran"]) == (1, 1) and list(summary["controllers"]) == ["agent-rp"]
+    assert sorted(path.name for path in out.iterdir()) == ["agent-rp"]
