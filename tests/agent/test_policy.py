@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from agent_fakes import make_policy
 
-from krl.agent.callbacks import export_policy
 from krl.agent.config import AgentConfig, ResidualConfig
+from krl.agent.network import export_policy
 from krl.agent.policy import PolicyFileError, load_policy, policy_artifacts, shipped_policy_dir
 from krl.kernel.registry import shipped_model_path
 

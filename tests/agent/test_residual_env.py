@@ -133,6 +133,8 @@ def test_the_env_docstring_shows_every_feature_of_the_registry():
     from krl.agent.observation import observation_table
 
     assert observation_table().replace("\n", "\n    ") in A1ResidualEnv.__doc__
-    assert all(f"``{name}`` | {feature.size} |" in A1ResidualEnv.__doc__ for name, feature in FEATURES.items())
+    assert all(
+        f"``{name}`` | {feature.size} |" in A1ResidualEnv.__doc__ for name, feature in FEATURES.items()
+    )
     assert "gives D = 54" in A1ResidualEnv.__doc__
     assert observation_size(AgentConfig().observation.features) == 54

@@ -1,5 +1,10 @@
-"""What :func:`krl.agent.train.train` logs and saves while PPO learns: the training log, checkpoints and
-the exported policy."""
+"""What :func:`krl.agent.train.train` logs and saves while PPO learns.
+
+Three SB3 callbacks, one job each: :class:`EpisodeLog` logs the episodes of every rollout,
+:class:`Checkpointer` saves a checkpoint (:mod:`krl.agent.checkpoint` describes one and reads it back) every
+``checkpoint_every`` env steps, :class:`ProgressBar` shows the env steps on the terminal. They share a
+:class:`Clock` (the run's wall time over all its sittings).
+"""
 
 from __future__ import annotations
 
@@ -11,78 +16,46 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import torch
 from stable_baselines3.common.callbacks import BaseCallback
 
+from krl.agent.checkpoint import NORMALISER_FILE, NormaliserState
 from krl.agent.config import AgentConfig
-from krl.agent.policy import Policy
+from krl.agent.network import export_policy
 from krl.util.output import write_atomic
 from krl.util.progress import progress_bar
+from krl.util.timing import CONTROL_DT
 
 
-class TrainingCallback(BaseCallback):
-    """Logs episode metrics and reward terms after every rollout; checkpoints every ``checkpoint_every``.
+class Clock:
+    """A run's wall time [s]: ``before`` (its earlier sittings) plus the time since this one started."""
 
-    Logged (TensorBoard and ``progress.csv``), as means over the episodes that ended in the rollout:
-    ``episode/reward``, ``episode/targets_reached``, ``episode/fall_rate``, ``episode/length_s``,
-    ``reward_terms/<term>`` (per-episode sums); and ``time/env_steps_per_s`` (the rollout's and the
-    update's wall time together), ``time/wall_seconds``. SB3 adds ``train/approx_kl``,
-    ``train/clip_fraction``, ``train/learning_rate`` and the losses.
-
-    PyTorch runs on one thread while the environment workers step (more would only fight them for the
-    cores) and on ``config.workers`` threads during PPO's update, when the workers wait: measured on the
-    2-core machine, a minibatch of 4 000 took 28.5 ms on one thread and 16.6 ms on two, with the same
-    loss to the last bit (``benchmarks/README.md``).
-    """
-
-    def __init__(
-        self,
-        out: Path,
-        config: AgentConfig,
-        run: dict[str, Any],
-        wall_before: float,
-        software: dict[str, str],
-        progress: bool = False,
-    ) -> None:
-        super().__init__()
-        self.bar = progress_bar(progress)
-        self.bar_task = None
-        self.out = out
-        self.config = config
-        self.run = run
-        self.software = software
-        self.wall_before = wall_before
+    def __init__(self, before: float) -> None:
+        self.before = before
         self.started = time.perf_counter()
-        self.episodes: list[dict[str, Any]] = []
-        self.last_time = self.started
-        self.last_steps = 0
-        self.last_checkpoint = -1
 
-    def wall_seconds(self) -> float:
-        return self.wall_before + time.perf_counter() - self.started
+    def __call__(self) -> float:
+        return self.before + time.perf_counter() - self.started
+
+
+class EpisodeLog(BaseCallback):
+    """Logs, after every rollout (TensorBoard and ``progress.csv``), the means over the episodes that
+    ended in it: ``episode/reward``, ``episode/targets_reached``, ``episode/fall_rate``,
+    ``episode/length_s`` [s], ``episode/count``, ``reward_terms/<term>`` (per-episode sums); and
+    ``time/env_steps_per_s`` (the rollout's and the previous update's wall time together),
+    ``time/wall_seconds``. SB3 adds ``train/approx_kl``, ``train/clip_fraction``,
+    ``train/learning_rate`` and the losses."""
+
+    def __init__(self, clock: Clock) -> None:
+        super().__init__()
+        self.clock = clock
+        self.episodes: list[dict[str, Any]] = []
+        self.last_time = clock.started
+        self.last_steps = 0
 
     def _on_training_start(self) -> None:
         self.last_steps = self.num_timesteps
-        self.last_checkpoint = self.num_timesteps // self.config.checkpoint_every
-        # PPO stops at the end of the rollout that reaches the goal, so the bar counts whole rollouts
-        rollout = self.model.n_steps * self.model.n_envs
-        remaining = max(0, self.locals["total_timesteps"] - self.num_timesteps)
-        goal = self.num_timesteps + -(-remaining // rollout) * rollout
-        self.bar.start()
-        self.bar_task = self.bar.add_task("env steps", total=goal, completed=self.num_timesteps)
-
-    def _on_training_end(self) -> None:
-        self.close_progress()
-
-    def close_progress(self) -> None:
-        """Take the progress bar off the terminal (also after an interruption)."""
-        self.bar.stop()
-
-    def _on_rollout_start(self) -> None:
-        torch.set_num_threads(1)
 
     def _on_step(self) -> bool:
-        self.bar.update(self.bar_task, completed=self.num_timesteps)
         for info in self.locals["infos"]:
             episode = info.get("episode")
             if episode is not None:
@@ -91,30 +64,86 @@ class TrainingCallback(BaseCallback):
 
     def _on_rollout_end(self) -> None:
         now = time.perf_counter()
-        steps = self.num_timesteps - self.last_steps
         record = self.logger.record
-        record("time/env_steps_per_s", steps / max(now - self.last_time, 1e-9))
-        record("time/wall_seconds", self.wall_seconds())
+        record(
+            "time/env_steps_per_s", (self.num_timesteps - self.last_steps) / max(now - self.last_time, 1e-9)
+        )
+        record("time/wall_seconds", self.clock())
         self.last_time, self.last_steps = now, self.num_timesteps
-        if self.episodes:
-            record("episode/reward", float(np.mean([e["r"] for e in self.episodes])))
-            record("episode/targets_reached", float(np.mean([e["targets_reached"] for e in self.episodes])))
-            record("episode/fall_rate", float(np.mean([e["fell"] for e in self.episodes])))
-            record("episode/length_s", float(np.mean([e["l"] for e in self.episodes])) * 0.005)
-            record("episode/count", len(self.episodes))
-            for name in self.episodes[0]["terms"]:
-                record(
-                    f"reward_terms/{name}", float(np.mean([e["terms"].get(name, 0.0) for e in self.episodes]))
-                )
-            self.episodes = []
+        if not self.episodes:
+            return
+        episodes, self.episodes = self.episodes, []
+        record("episode/reward", float(np.mean([e["r"] for e in episodes])))
+        record("episode/targets_reached", float(np.mean([e["targets_reached"] for e in episodes])))
+        record("episode/fall_rate", float(np.mean([e["fell"] for e in episodes])))
+        record("episode/length_s", float(np.mean([e["l"] for e in episodes])) * CONTROL_DT)
+        record("episode/count", len(episodes))
+        for name in episodes[0]["terms"]:
+            record(f"reward_terms/{name}", float(np.mean([e["terms"].get(name, 0.0) for e in episodes])))
+
+
+class ProgressBar(BaseCallback):
+    """The env steps on the terminal (nothing when ``show`` is false)."""
+
+    def __init__(self, show: bool) -> None:
+        super().__init__()
+        self.bar = progress_bar(show)
+        self.task = None
+
+    def _on_training_start(self) -> None:
+        # PPO stops at the end of the rollout that reaches the goal, so the bar counts whole rollouts
+        rollout = self.model.n_steps * self.model.n_envs
+        remaining = max(0, self.locals["total_timesteps"] - self.num_timesteps)
+        goal = self.num_timesteps + -(-remaining // rollout) * rollout
+        self.bar.start()
+        self.task = self.bar.add_task("env steps", total=goal, completed=self.num_timesteps)
+
+    def _on_step(self) -> bool:
+        self.bar.update(self.task, completed=self.num_timesteps)
+        return True
+
+    def _on_training_end(self) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Take the bar off the terminal (also after an interruption)."""
+        self.bar.stop()
+
+
+class Checkpointer(BaseCallback):
+    """Saves a checkpoint (module docstring) and exports ``policy.npz`` at the end of each rollout that
+    passes a multiple of ``config.checkpoint_every`` env steps; :meth:`save` also at the end of training
+    and on an interruption.
+
+    Args:
+        out: the run folder.
+        config: the agent's configuration (the one this sitting trains with).
+        run: the run record (``run.json``): seed, kernel SHA-256, ``initialized_from``.
+        clock: the run's wall time.
+        software: the versions recorded in the policy's metadata.
+    """
+
+    def __init__(
+        self, out: Path, config: AgentConfig, run: dict[str, Any], clock: Clock, software: dict[str, str]
+    ) -> None:
+        super().__init__()
+        self.out, self.config, self.run, self.clock, self.software = out, config, run, clock, software
+        self.last_checkpoint = -1
+
+    def _on_training_start(self) -> None:
+        self.last_checkpoint = self.num_timesteps // self.config.checkpoint_every
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
         if self.num_timesteps // self.config.checkpoint_every > self.last_checkpoint:
             self.last_checkpoint = self.num_timesteps // self.config.checkpoint_every
-            self.save_checkpoint(self.model)
-        torch.set_num_threads(self.config.workers)  # PPO's update follows; the workers wait for it
+            self.save(self.model)
 
-    def save_checkpoint(self, model, final: bool = False) -> Path:
+    def save(self, model, final: bool = False) -> Path:
         """Save the model, its normaliser and the exported policy; the newest checkpoint is named in
-        ``checkpoints/latest`` only once all of it is written."""
+        ``checkpoints/latest`` only once all of it is written. Returns the checkpoint's folder."""
         steps = int(model.num_timesteps)
         directory = self.out / "checkpoints"
         directory.mkdir(parents=True, exist_ok=True)
@@ -124,15 +153,23 @@ class TrainingCallback(BaseCallback):
         model.save(str(temporary / "model.zip"))
         normaliser = model.get_vec_normalize_env()
         if normaliser is not None:
-            normaliser.save(str(temporary / "normaliser.pkl"))
-        state = {"num_timesteps": steps, "wall_seconds": round(self.wall_seconds(), 3), "final": final}
+            NormaliserState.of(normaliser).save(temporary / NORMALISER_FILE)
+        state = {"num_timesteps": steps, "wall_seconds": round(self.clock(), 3), "final": final}
         (temporary / "state.json").write_text(json.dumps(state) + "\n")
-        final_dir = directory / name
-        if final_dir.exists():
-            shutil.rmtree(final_dir)
-        os.replace(temporary, final_dir)
+        folder = directory / name
+        if folder.exists():
+            shutil.rmtree(folder)
+        os.replace(temporary, folder)
+        export_policy(model, normaliser, self.config, self._metadata(state)).save(self.out / "policy.npz")
+        write_atomic(directory / "latest", (name + "\n").encode())
+        remove_old_checkpoints(directory, name)
+        return folder
+
+    def _metadata(self, state: dict[str, Any]) -> dict[str, Any]:
+        """The exported policy's header: kernel, how it was trained (``state``: a checkpoint's state.json)
+        and the software."""
         training = {
-            "env_steps": steps,
+            "env_steps": state["num_timesteps"],
             "wall_seconds": state["wall_seconds"],
             "seed": self.run["seed"],
             "workers": self.config.workers,
@@ -140,39 +177,7 @@ class TrainingCallback(BaseCallback):
         }
         if "initialized_from" in self.run:
             training["initialized_from"] = self.run["initialized_from"]
-        metadata = {
-            "kernel_sha256": self.run["kernel_sha256"],
-            "training": training,
-            "software": self.software,
-        }
-        export_policy(model, normaliser, self.config, metadata).save(self.out / "policy.npz")
-        write_atomic(directory / "latest", (name + "\n").encode())
-        remove_old_checkpoints(directory, name)
-        return final_dir
-
-
-def export_policy(model, normaliser, config: AgentConfig, metadata: dict[str, Any]) -> Policy:
-    """The actor of a trained SB3 PPO model (+ its observation normaliser) as a :class:`Policy`."""
-    import torch
-
-    policy = model.policy
-    modules = [
-        *policy.features_extractor.net,
-        *policy.mlp_extractor.policy_net,
-        policy.action_net,
-    ]
-    layers = [
-        (m.weight.detach().cpu().double().numpy(), m.bias.detach().cpu().double().numpy())
-        for m in modules
-        if isinstance(m, torch.nn.Linear)
-    ]
-    size = layers[0][0].shape[1]
-    if normaliser is not None and config.ppo.normalize_observations:
-        mean, var = normaliser.obs_rms.mean.astype(np.float64), normaliser.obs_rms.var.astype(np.float64)
-        clip, epsilon = float(normaliser.clip_obs), float(normaliser.epsilon)
-    else:
-        mean, var, clip, epsilon = np.zeros(size), np.ones(size), 1e9, 0.0
-    return Policy(config, layers, mean, var, clip, epsilon, metadata)
+        return {"kernel_sha256": self.run["kernel_sha256"], "training": training, "software": self.software}
 
 
 def remove_old_checkpoints(directory: Path, keep: str) -> None:

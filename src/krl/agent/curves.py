@@ -1,6 +1,7 @@
 """Training curves of residual agents: episode reward, targets reached and fall rate against env steps.
 
-Read from each run folder's ``progress.csv`` (:mod:`krl.agent.callbacks`); one line per run, so the
+Read from each run folder's ``progress.csv`` and the segments resumptions set aside
+(``progress.<steps>.csv``, :mod:`krl.agent.train`); one line per run, so the
 runs of several seeds (Fig. 4.23) or settings share one figure.
 """
 
@@ -10,6 +11,9 @@ import csv
 from pathlib import Path
 
 from krl.util.output import figure_bytes, write_atomic
+
+STEPS_COLUMN = "time/total_timesteps"
+"""The column of ``progress.csv`` (SB3's) that holds the env steps trained when the row was logged."""
 
 PANELS: tuple[tuple[str, str], ...] = (
     ("episode/reward", "episode reward"),
@@ -25,7 +29,7 @@ def read_progress(run: Path) -> dict[str, list[float]]:
     path = run / "progress.csv"
     if not path.is_file():
         raise FileNotFoundError(f"no training log {path} (is {run} a krl agent train folder?)")
-    columns: dict[str, list[float]] = {"time/total_timesteps": []}
+    columns: dict[str, list[float]] = {STEPS_COLUMN: []}
     columns.update({name: [] for name, _ in PANELS})
     for segment in [*sorted(run.glob("progress.*.csv")), path]:
         with open(segment, newline="") as handle:
@@ -46,7 +50,7 @@ def plot_training_curves(runs: list[Path], out: Path) -> list[Path]:
     fig, axes = plt.subplots(1, len(PANELS), figsize=(12, 3.4))
     for run in runs:
         progress = read_progress(run)
-        steps = [s / 1e6 for s in progress["time/total_timesteps"]]
+        steps = [s / 1e6 for s in progress[STEPS_COLUMN]]
         for ax, (name, _) in zip(axes, PANELS, strict=True):
             ax.plot(steps, progress[name], label=run.name, linewidth=1.2)
     for ax, (_, label) in zip(axes, PANELS, strict=True):

@@ -6,10 +6,10 @@
 | --- | --- |
 | ``config.json`` | the resolved :class:`krl.agent.config.AgentConfig` |
 | ``run.json`` | seed, kernel file and its SHA-256, krl version |
-| ``checkpoints/<steps>/`` | SB3 model, observation normaliser, ``state.json``; ``latest`` names the newest |
+| ``checkpoints/<steps>/`` | model, normaliser, ``state.json`` (:mod:`krl.agent.checkpoint`); ``latest`` |
 | ``policy.npz`` | the exported policy (:mod:`krl.agent.policy`), refreshed at every checkpoint |
 | ``progress.csv``, ``events.*`` | the training log, CSV and TensorBoard (:mod:`krl.agent.callbacks`) |
-| ``progress.<steps>.csv`` | the CSV log before a resumption at ``<steps>`` (SB3 starts its CSV afresh) |
+| ``progress.<steps>.csv`` | the CSV log up to ``<steps>``, set aside by a resumption from there |
 
 ``train(out, config, seed, init_from=RUN)`` starts a new run from another run's newest checkpoint (its
 policy, value function, optimiser state and observation normaliser): fine-tuning, for instance under
@@ -17,23 +17,45 @@ another training distribution. The two must share the kernel, the residual path,
 network; ``run.json`` and the exported policy's metadata record the run it started from and its env steps.
 
 Calling it again on the same folder resumes from the newest checkpoint (an interruption loses at most
-``checkpoint_every`` env steps). The environments restart from fresh episodes on resumption, seeded from
-the run's seed and the checkpoint's step count, so a resumed run is reproducible but not bit-identical to
-an uninterrupted one; an uninterrupted run with the same seed on the same machine is.
+``checkpoint_every`` env steps), with the stored config; only the number of worker processes may change
+between sittings. The environments restart from fresh episodes on resumption, seeded from the run's seed
+and the checkpoint's step count, so a resumed run is reproducible but not bit-identical to an
+uninterrupted one; an uninterrupted run with the same seed on the same machine is.
+
+Nothing read from a run folder runs code (:mod:`krl.agent.checkpoint`): a model is built afresh from the
+config, then given a checkpoint's weights, optimiser state, normaliser and counters.
 """
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import signal
+from collections import deque
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import torch
+from stable_baselines3 import PPO
+from stable_baselines3.common.logger import configure
+from stable_baselines3.common.vec_env import VecNormalize
+from threadpoolctl import threadpool_limits
+
+from krl.agent.callbacks import Checkpointer, Clock, EpisodeLog, ProgressBar
+from krl.agent.checkpoint import Checkpoint, CheckpointError, read_checkpoint, read_state
 from krl.agent.config import AgentConfig, AgentConfigError
+from krl.agent.curves import STEPS_COLUMN
+from krl.agent.network import SharedExtractor
+from krl.agent.process_vec_env import ProcessVecEnv
 from krl.util.hashing import file_sha256
 from krl.util.output import write_atomic
 from krl.util.parallel import Interrupted
+
+RESUME_SEED_STRIDE = 7919
+"""A resumed run's environments are seeded ``seed + RESUME_SEED_STRIDE * (checkpoints passed + 1)`` (a
+prime, so that the sittings' environment seeds stay apart from each other's ``seed + i``)."""
 
 
 class TrainingError(RuntimeError):
@@ -59,11 +81,29 @@ class LearningRate:
         return float(self.ppo.learning_rate_at((1.0 - progress_remaining) * self.total_steps))
 
 
+class ThreadedPPO(PPO):
+    """SB3's PPO whose update runs on ``update_threads`` PyTorch threads, and everything else on one.
+
+    The environment workers step while PyTorch computes the rollout's actions, so more threads would
+    only fight them for the cores; during the update the workers wait. Measured on the 2-core machine, a
+    minibatch of 4 000 took 28.5 ms on one thread and 16.6 ms on two, with the same loss to the last bit
+    (``benchmarks/README.md``).
+    """
+
+    update_threads: int = 1
+
+    def train(self) -> None:
+        torch.set_num_threads(self.update_threads)
+        try:
+            super().train()
+        finally:
+            torch.set_num_threads(1)
+
+    def _excluded_save_params(self) -> list[str]:
+        return [*super()._excluded_save_params(), "update_threads"]
+
+
 def _policy_kwargs(config: AgentConfig) -> dict[str, Any]:
-    import torch
-
-    from krl.agent.network import SharedExtractor
-
     ppo = config.ppo
     return {
         "features_extractor_class": SharedExtractor,
@@ -78,7 +118,6 @@ def _policy_kwargs(config: AgentConfig) -> dict[str, Any]:
 def _software() -> dict[str, str]:
     import mujoco
     import stable_baselines3
-    import torch
 
     from krl import __version__
 
@@ -90,59 +129,146 @@ def _software() -> dict[str, str]:
     }
 
 
-def _latest_checkpoint(out: Path) -> Path | None:
-    latest = out / "checkpoints" / "latest"
-    if not latest.is_file():
-        return None
-    path = out / "checkpoints" / latest.read_text().strip()
-    if not (path / "state.json").is_file():
-        raise TrainingError(f"run {out}: checkpoint {path.name} named by checkpoints/latest is incomplete")
-    return path
+def train(
+    out: str | Path,
+    config: AgentConfig | None = None,
+    seed: int | None = None,
+    total_steps: int | None = None,
+    progress: bool = True,
+    log=print,
+    init_from: str | Path | None = None,
+    workers: int | None = None,
+    num_envs: int | None = None,
+) -> dict[str, Any]:
+    """Train (or resume) a residual agent in ``out``; returns a summary (steps, wall time, policy path).
+
+    Args:
+        out: the run folder.
+        config: the agent's configuration (default :class:`AgentConfig`); a resumed run's must be its
+            stored one, but for ``workers``.
+        seed: the run's seed (default 0); must match a resumed run's.
+        total_steps: env steps to train to, >= 1 (default ``config.total_steps``); may extend a finished
+            run.
+        progress: show a progress bar.
+        log: where one-line messages go.
+        init_from: a run folder whose newest checkpoint a new run starts from (module docstring).
+        workers: worker processes (default: the config's); may differ from a resumed run's.
+        num_envs: environments per worker (default: the config's); must match a resumed run's.
+
+    Raises:
+        TrainingError: (one line, before anything is written) a run folder or checkpoint that cannot be
+            used, or ``total_steps`` below 1.
+    """
+    out = Path(out)
+    if total_steps is not None and total_steps < 1:
+        raise TrainingError(f"total_steps must be at least 1 env step, got {total_steps}")
+    config, run = _open_run(out, config, seed, init_from, workers, num_envs)
+    total = config.total_steps if total_steps is None else total_steps
+    latest = _latest_checkpoint(out)
+    done, wall_before = (0, 0.0) if latest is None else _read(read_state, latest)
+    if done >= total:
+        log(f"run {out} already has {done} env steps (of {total}); nothing to do")
+        return _summary(out, done, wall_before)
+    start = _starting_point(run, latest)  # read whole before anything is written
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"  # inherited by the spawned workers
+    torch.set_num_threads(1)  # small networks: extra intra-op threads only spin against the env workers
+    env_seed = _env_seed(run["seed"], config, None if latest is None else done)
+    venv = ProcessVecEnv(config, config.workers, config.num_envs, env_seed, _run_kernel(out, config, run))
+    try:
+        model = _new_model(config, venv, run["seed"], total)
+        if latest is not None:
+            _resume(model, start)
+            log(f"resuming {out} from {latest.name} ({done} env steps)")
+            _archive_log(out, done)
+        elif start is not None:
+            _start_from(model, start)
+            log(f"starting {out} from {run['initialized_from']['run']} ({start.num_timesteps} env steps)")
+        model.set_logger(configure(str(out), ["csv", "tensorboard"]))
+        return _learn(model, out, config, run, total, Clock(wall_before), progress, log)
+    finally:
+        venv.close()
 
 
-def _read_run(folder: Path) -> tuple[AgentConfig, dict[str, Any]]:
-    """A run folder's config and run record; ``OSError``, ``ValueError`` or ``AgentConfigError`` if either
-    cannot be read."""
-    config_path = folder / "config.json"
-    config = AgentConfig.from_json(json.loads(config_path.read_text()), str(config_path))
-    return config, json.loads((folder / "run.json").read_text())
-
-
-def _corrupt(checkpoint: Path, error: Exception) -> TrainingError:
-    """The one-line error for a checkpoint SB3 or pickle cannot load (they raise many types)."""
-    first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-    return TrainingError(f"checkpoint {checkpoint} is corrupt: {first}")
+def _summary(out: Path, env_steps: int, wall_seconds: float) -> dict[str, Any]:
+    return {
+        "out": str(out),
+        "env_steps": env_steps,
+        "wall_seconds": wall_seconds,
+        "policy": str(out / "policy.npz"),
+    }
 
 
 def _open_run(
-    out: Path, config: AgentConfig | None, seed: int | None, init_from: Path | None = None
+    out: Path,
+    config: AgentConfig | None,
+    seed: int | None,
+    init_from: str | Path | None,
+    workers: int | None,
+    num_envs: int | None,
 ) -> tuple[AgentConfig, dict[str, Any]]:
-    """Read (resuming) or create the run folder; returns its config and run record."""
+    """The run's config and run record: read (a resumption, :func:`_reopen_run`) or written (a new run,
+    :func:`_new_run`), with the ``workers`` and ``num_envs`` given."""
+    overrides = {
+        name: value for name, value in (("workers", workers), ("num_envs", num_envs)) if value is not None
+    }
+    source = None if init_from is None else Path(init_from)
     if (out / "config.json").is_file():
-        try:
-            stored, run = _read_run(out)
-        except (OSError, ValueError, AgentConfigError) as error:
-            raise TrainingError(f"run {out} cannot be resumed: {error}") from None
-        if config is not None and config != stored:
-            raise TrainingError(
-                f"run {out} was started with another config; use a new --out or drop --config"
-            )
-        if seed is not None and seed != run["seed"]:
-            raise TrainingError(f"run {out} was started with seed {run['seed']}, not {seed}")
-        started_from = run.get("initialized_from", {}).get("run")
-        if init_from is not None and (
-            started_from is None or Path(started_from).resolve() != Path(init_from).resolve()
-        ):
-            raise TrainingError(f"run {out} was not started from {init_from}; drop --init-from to resume it")
-        return stored, run
-    config = config or AgentConfig()
+        return _reopen_run(out, config, seed, source, overrides)
+    config = replace(config or AgentConfig(), **overrides)
+    return config, _new_run(out, config, seed, source)
+
+
+def _reopen_run(
+    out: Path, config: AgentConfig | None, seed: int | None, init_from: Path | None, overrides: dict[str, int]
+) -> tuple[AgentConfig, dict[str, Any]]:
+    """A resumed run's stored config (with the worker count asked for) and run record; refuses a
+    resumption asked with another config (``workers`` aside: it only spreads the env steps over
+    processes), another seed or another run to start from."""
+    try:
+        stored, run = _read_run(out)
+    except (OSError, ValueError, AgentConfigError) as error:
+        raise TrainingError(f"run {out} cannot be resumed: {error}") from None
+    asked = replace(config or stored, **overrides)
+    difference = _difference(stored, replace(asked, workers=stored.workers))
+    if difference is not None:
+        raise TrainingError(
+            f"run {out} was started with another config (its {difference}); use a new --out, or drop "
+            "--config and --num-envs to resume it"
+        )
+    if seed is not None and seed != run["seed"]:
+        raise TrainingError(f"run {out} was started with seed {run['seed']}, not {seed}")
+    started_from = run.get("initialized_from", {}).get("run")
+    if init_from is not None and (
+        started_from is None or Path(started_from).resolve() != init_from.resolve()
+    ):
+        raise TrainingError(f"run {out} was not started from {init_from}; drop --init-from to resume it")
+    return replace(stored, workers=asked.workers), run
+
+
+def _difference(stored: AgentConfig, asked: AgentConfig) -> str | None:
+    """The first setting in which ``asked`` differs from ``stored``, as ``section.name is X, not Y``."""
+    theirs, mine = stored.to_json(), asked.to_json()
+    for section, value in theirs.items():
+        pairs = (
+            [(f"{section}.{name}", item, mine[section][name]) for name, item in value.items()]
+            if isinstance(value, dict)
+            else [(section, value, mine[section])]
+        )
+        for name, their_value, my_value in pairs:
+            if their_value != my_value:
+                return f"{name} is {their_value!r}, not {my_value!r}"
+    return None
+
+
+def _new_run(out: Path, config: AgentConfig, seed: int | None, init_from: Path | None) -> dict[str, Any]:
+    """Check the kernel (and the run to start from), then write the new run's ``run.json`` and
+    ``config.json``; returns the run record."""
+    from krl.kernel.model import load_kernel
     from krl.kernel.registry import resolve_model
 
     kernel_path = resolve_model(config.residual.kernel)
     if not kernel_path.is_file():
         raise TrainingError(f"kernel file {kernel_path} not found")
-    from krl.kernel.model import load_kernel
-
     load_kernel(kernel_path)  # a one-line KernelFileError before anything is written
     run = {
         "seed": 0 if seed is None else seed,
@@ -155,17 +281,44 @@ def _open_run(
     out.mkdir(parents=True, exist_ok=True)
     write_atomic(out / "run.json", (json.dumps(run, indent=2) + "\n").encode())
     write_atomic(out / "config.json", (json.dumps(config.to_json(), indent=2) + "\n").encode())
-    return config, run
+    return run
+
+
+def _read_run(folder: Path) -> tuple[AgentConfig, dict[str, Any]]:
+    """A run folder's config and run record; ``OSError``, ``ValueError`` or ``AgentConfigError`` if either
+    cannot be read."""
+    config_path = folder / "config.json"
+    config = AgentConfig.from_json(json.loads(config_path.read_text()), str(config_path))
+    return config, json.loads((folder / "run.json").read_text())
+
+
+def _latest_checkpoint(out: Path) -> Path | None:
+    latest = out / "checkpoints" / "latest"
+    if not latest.is_file():
+        return None
+    path = out / "checkpoints" / latest.read_text().strip()
+    if not (path / "state.json").is_file():
+        raise TrainingError(f"run {out}: checkpoint {path.name} named by checkpoints/latest is incomplete")
+    return path
+
+
+def _read(reader, checkpoint: Path):
+    """``reader(checkpoint)`` (:func:`read_state`, :func:`read_checkpoint`) with its error as a
+    TrainingError."""
+    try:
+        return reader(checkpoint)
+    except CheckpointError as error:
+        raise TrainingError(str(error)) from None
 
 
 def _initial_run(source: Path, config: AgentConfig, kernel_sha256: str) -> dict[str, Any]:
-    """What a run started from ``source`` records of it; refuses a source the new run cannot start from."""
-    checkpoint = _latest_checkpoint(source)
-    if checkpoint is None or not (source / "config.json").is_file():
+    """What a run started from ``source`` records of it; refuses a source the new run cannot start from
+    (its whole checkpoint is read here, before the new run writes anything)."""
+    latest = _latest_checkpoint(source)
+    if latest is None or not (source / "config.json").is_file():
         raise TrainingError(f"--init-from {source}: not a run folder of krl agent train with a checkpoint")
     try:
         theirs, their_run = _read_run(source)
-        state = json.loads((checkpoint / "state.json").read_text())
     except (OSError, ValueError, AgentConfigError) as error:
         raise TrainingError(f"--init-from {source}: {error}") from None
     network = ("shared", "actor", "critic", "log_std_init", "normalize_observations")
@@ -178,31 +331,28 @@ def _initial_run(source: Path, config: AgentConfig, kernel_sha256: str) -> dict[
             raise TrainingError(f"--init-from {source}: its {name} is {other!r}, this run's is {mine!r}")
     if their_run.get("kernel_sha256") != kernel_sha256:
         raise TrainingError(f"--init-from {source}: it was trained with another kernel file")
+    checkpoint = _read(read_checkpoint, latest)
     return {
         "run": str(source),
-        "checkpoint": checkpoint.name,
-        "env_steps": int(state["num_timesteps"]),
-        "wall_seconds": float(state["wall_seconds"]),
+        "checkpoint": latest.name,
+        "env_steps": checkpoint.num_timesteps,
+        "wall_seconds": checkpoint.wall_seconds,
         "seed": their_run.get("seed"),
     }
 
 
-def _start_from(model, env, start: dict[str, Any]) -> None:
-    """Load the checkpoint a new run records in ``initialized_from`` (``start``) into its ``model``
-    (weights and optimiser state) and its normaliser ``env`` (running statistics)."""
-    from stable_baselines3.common.vec_env import VecNormalize
-
+def _starting_point(run: dict[str, Any], latest: Path | None) -> Checkpoint | None:
+    """The checkpoint training continues from: the run's newest, else the one of the run it starts from
+    (``initialized_from``), else None (a new run from scratch)."""
+    if latest is not None:
+        return _read(read_checkpoint, latest)
+    start = run.get("initialized_from")
+    if start is None:
+        return None
     checkpoint = Path(start["run"]) / "checkpoints" / start["checkpoint"]
-    if not (checkpoint / "model.zip").is_file():
+    if not checkpoint.is_dir():
         raise TrainingError(f"checkpoint {checkpoint} that this run starts from is gone (trained on since?)")
-    try:
-        model.set_parameters(str(checkpoint / "model.zip"), exact_match=True, device="cpu")
-        normaliser = checkpoint / "normaliser.pkl"
-        if normaliser.is_file():
-            theirs = VecNormalize.load(str(normaliser), env.venv)
-            env.obs_rms, env.ret_rms = theirs.obs_rms, theirs.ret_rms
-    except Exception as error:
-        raise _corrupt(checkpoint, error) from None
+    return _read(read_checkpoint, checkpoint)
 
 
 def _run_kernel(out: Path, config: AgentConfig, run: dict[str, Any]) -> str:
@@ -219,127 +369,115 @@ def _run_kernel(out: Path, config: AgentConfig, run: dict[str, Any]) -> str:
     )
 
 
-def train(
-    out: str | Path,
-    config: AgentConfig | None = None,
-    seed: int | None = None,
-    total_steps: int | None = None,
-    progress: bool = True,
-    log=print,
-    init_from: str | Path | None = None,
-) -> dict[str, Any]:
-    """Train (or resume) a residual agent in ``out``; returns a summary (steps, wall time, policy path).
+def _env_seed(seed: int, config: AgentConfig, resumed_at: int | None) -> int:
+    """Seed of environment 0: the run's ``seed``, or for a sitting resumed at ``resumed_at`` env steps,
+    one of the checkpoints passed (so that each sitting's environments start afresh)."""
+    if resumed_at is None:
+        return seed
+    return seed + RESUME_SEED_STRIDE * (resumed_at // config.checkpoint_every + 1)
 
-    Args:
-        out: the run folder.
-        config: the agent's configuration (default :class:`AgentConfig`); must match a resumed run's.
-        seed: the run's seed (default 0); must match a resumed run's.
-        total_steps: env steps to train to (default ``config.total_steps``); may extend a finished run.
-        progress: show a progress bar.
-        log: where one-line messages go.
-        init_from: a run folder whose newest checkpoint a new run starts from (module docstring).
-    """
-    import torch
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.logger import configure
-    from stable_baselines3.common.vec_env import VecNormalize
-    from threadpoolctl import threadpool_limits
 
-    from krl.agent.callbacks import TrainingCallback
-    from krl.agent.workers import ProcessVecEnv
+def _new_model(config: AgentConfig, venv, seed: int, total: int) -> ThreadedPPO:
+    """A PPO of the config's settings, freshly initialised from ``seed``, on ``venv`` wrapped in a running
+    normaliser; its learning rate follows the schedule up to ``total`` env steps."""
+    ppo = config.ppo
+    env = VecNormalize(
+        venv, norm_obs=ppo.normalize_observations, norm_reward=ppo.normalize_rewards, gamma=ppo.gamma
+    )
+    model = ThreadedPPO(
+        "MlpPolicy",
+        env,
+        learning_rate=LearningRate(ppo, total),
+        n_steps=max(1, ppo.rollout_steps // venv.num_envs),
+        batch_size=ppo.batch_size,
+        n_epochs=ppo.n_epochs,
+        gamma=ppo.gamma,
+        gae_lambda=ppo.gae_lambda,
+        clip_range=ppo.clip_range,
+        ent_coef=ppo.ent_coef,
+        policy_kwargs=_policy_kwargs(config),
+        seed=seed,
+        device="cpu",
+        verbose=0,
+    )
+    model.update_threads = config.workers  # the workers wait while PPO updates
+    return model
 
-    out = Path(out)
-    source = None if init_from is None else Path(init_from)
-    config, run = _open_run(out, config, seed, source)
-    seed = run["seed"]
-    total = int(total_steps or config.total_steps)
-    checkpoint = _latest_checkpoint(out)
-    done_steps, wall_before = 0, 0.0
-    if checkpoint is not None:
-        state = json.loads((checkpoint / "state.json").read_text())
-        done_steps, wall_before = int(state["num_timesteps"]), float(state["wall_seconds"])
-    if done_steps >= total:
-        log(f"run {out} already has {done_steps} env steps (of {total}); nothing to do")
-        return {
-            "out": str(out),
-            "env_steps": done_steps,
-            "wall_seconds": wall_before,
-            "policy": str(out / "policy.npz"),
-        }
-    os.environ["OPENBLAS_NUM_THREADS"] = "1"  # inherited by the spawned workers
-    torch.set_num_threads(1)  # small networks: extra intra-op threads only spin against the env workers
-    env_seed = seed if checkpoint is None else seed + 7919 * (done_steps // config.checkpoint_every + 1)
-    kernel_path = _run_kernel(out, config, run)
-    venv = ProcessVecEnv(config, config.workers, config.num_envs, env_seed, kernel_path)
-    num_envs = venv.num_envs
+
+def _load(model: PPO, checkpoint: Checkpoint, settings: bool) -> None:
+    """The checkpoint's network, optimiser state and normaliser statistics (with ``settings``, also the
+    normaliser's settings) into ``model``, which must have the same layers."""
     try:
-        ppo = config.ppo
-        if checkpoint is None:
-            env = VecNormalize(
-                venv, norm_obs=ppo.normalize_observations, norm_reward=ppo.normalize_rewards, gamma=ppo.gamma
+        model.set_parameters(checkpoint.params, exact_match=True, device="cpu")
+        if checkpoint.normaliser is not None:
+            checkpoint.normaliser.restore(model.get_vec_normalize_env(), settings)
+    except Exception as error:  # torch raises RuntimeError, KeyError or ValueError on a mismatch
+        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise TrainingError(f"checkpoint {checkpoint.folder} is corrupt: {first}") from None
+
+
+def _resume(model: PPO, checkpoint: Checkpoint) -> None:
+    """Continue the run's own ``checkpoint`` in a new ``model``: what SB3's ``PPO.load`` restores that
+    training reads (weights, optimiser state, the normaliser's statistics and settings, env steps, update
+    count, the recent episodes behind ``rollout/ep_rew_mean``), and nothing else."""
+    _load(model, checkpoint, settings=True)
+    model.num_timesteps = checkpoint.num_timesteps
+    model._n_updates = checkpoint.n_updates
+    model.ep_info_buffer = deque(checkpoint.episodes, maxlen=model._stats_window_size)
+    model.ep_success_buffer = deque(maxlen=model._stats_window_size)
+
+
+def _start_from(model: PPO, checkpoint: Checkpoint) -> None:
+    """Start a new run's ``model`` from another run's ``checkpoint``: its weights, optimiser state and
+    normaliser statistics (the normaliser's settings are this run's)."""
+    _load(model, checkpoint, settings=False)
+
+
+def _archive_log(out: Path, steps: int) -> None:
+    """Before a resumption from the checkpoint at ``steps``, set ``progress.csv`` aside as
+    ``progress.<steps>.csv`` (SB3's CSV logger starts its file afresh) without its rows past ``steps``,
+    which are trained again. A log with no row left (a second resumption from one checkpoint) is dropped,
+    keeping the archive the first one made."""
+    log = out / "progress.csv"
+    if not log.is_file():
+        return
+    lines = log.read_text().splitlines(keepends=True)
+    if lines:
+        column = next(csv.reader(lines[:1])).index(STEPS_COLUMN)
+        kept = [line for line in lines[1:] if float(next(csv.reader([line]))[column]) <= steps]
+        if kept:
+            write_atomic(out / f"progress.{steps:011d}.csv", "".join([lines[0], *kept]))
+    log.unlink()
+
+
+def _learn(
+    model: PPO,
+    out: Path,
+    config: AgentConfig,
+    run: dict[str, Any],
+    total: int,
+    clock: Clock,
+    progress: bool,
+    log,
+) -> dict[str, Any]:
+    """Train ``model`` to ``total`` env steps with the logging, checkpointing and progress callbacks;
+    Ctrl-C or SIGTERM saves a checkpoint and re-raises. Returns the summary of :func:`train`."""
+    checkpointer = Checkpointer(out, config, run, clock, _software())
+    bar = ProgressBar(progress)
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        with threadpool_limits(1, user_api="blas"):
+            model.learn(
+                total - model.num_timesteps,
+                callback=[EpisodeLog(clock), checkpointer, bar],
+                reset_num_timesteps=model.num_timesteps == 0,  # a resumed model counts on
             )
-            model = PPO(
-                "MlpPolicy",
-                env,
-                learning_rate=LearningRate(ppo, total),
-                n_steps=max(1, ppo.rollout_steps // num_envs),
-                batch_size=ppo.batch_size,
-                n_epochs=ppo.n_epochs,
-                gamma=ppo.gamma,
-                gae_lambda=ppo.gae_lambda,
-                clip_range=ppo.clip_range,
-                ent_coef=ppo.ent_coef,
-                policy_kwargs=_policy_kwargs(config),
-                seed=seed,
-                device="cpu",
-                verbose=0,
-            )
-            start = run.get("initialized_from")
-            if start is not None:
-                _start_from(model, env, start)
-                log(f"starting {out} from {start['run']} ({start['env_steps']} env steps)")
-        else:
-            try:
-                env = VecNormalize.load(str(checkpoint / "normaliser.pkl"), venv)
-                model = PPO.load(
-                    str(checkpoint / "model.zip"),
-                    env=env,
-                    device="cpu",
-                    custom_objects={
-                        "learning_rate": LearningRate(ppo, total),
-                        "lr_schedule": LearningRate(ppo, total),
-                    },
-                )
-            except Exception as error:
-                raise _corrupt(checkpoint, error) from None
-            model.num_timesteps = done_steps
-            log(f"resuming {out} from {checkpoint.name} ({done_steps} env steps)")
-        log_path = out / "progress.csv"
-        if checkpoint is not None and log_path.is_file():  # SB3's CSV logger starts its file afresh
-            os.replace(log_path, out / f"progress.{done_steps:011d}.csv")
-        model.set_logger(configure(str(out), ["csv", "tensorboard"]))
-        callback = TrainingCallback(out, config, run, wall_before, _software(), progress)
-        previous = signal.signal(signal.SIGTERM, _terminate)
-        try:
-            with threadpool_limits(1, user_api="blas"):
-                model.learn(
-                    total - done_steps,
-                    callback=callback,
-                    reset_num_timesteps=checkpoint is None,
-                )
-        except KeyboardInterrupt:  # Ctrl-C or SIGTERM: keep what was learnt, then stop
-            path = callback.save_checkpoint(model)
-            log(f"interrupted: saved {path.name} ({model.num_timesteps} env steps); run again to resume")
-            raise
-        finally:
-            callback.close_progress()
-            signal.signal(signal.SIGTERM, previous)
-        callback.save_checkpoint(model, final=True)
-        return {
-            "out": str(out),
-            "env_steps": int(model.num_timesteps),
-            "wall_seconds": round(callback.wall_seconds(), 1),
-            "policy": str(out / "policy.npz"),
-        }
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: keep what was learnt, then stop
+        path = checkpointer.save(model)
+        log(f"interrupted: saved {path.name} ({model.num_timesteps} env steps); run again to resume")
+        raise
     finally:
-        venv.close()
+        bar.close()
+        signal.signal(signal.SIGTERM, previous)
+    checkpointer.save(model, final=True)
+    return _summary(out, int(model.num_timesteps), round(clock(), 1))

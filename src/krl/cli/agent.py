@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from krl.cli.common import CliError, emit, run_controller
@@ -16,28 +17,34 @@ def _config(args: argparse.Namespace):
 
 
 def run_train(args: argparse.Namespace) -> int:
-    from dataclasses import replace
+    from krl.agent.process_vec_env import WorkerError
+    from krl.agent.train import TrainingError, train
 
-    from krl.agent.config import AgentConfig
-    from krl.agent.train import train
-    from krl.agent.workers import WorkerError
-
-    config = _config(args)
-    if args.workers is not None or args.num_envs is not None:
-        base = config or AgentConfig()
-        config = replace(
-            base,
-            workers=base.workers if args.workers is None else args.workers,
-            num_envs=base.num_envs if args.num_envs is None else args.num_envs,
-        )
+    if args.steps is not None and args.steps < 1:
+        raise CliError(f"--steps must be at least 1 env step, got {args.steps}")
     try:
         summary = train(
-            args.out, config, args.seed, args.steps, progress=not args.quiet, init_from=args.init_from
+            args.out,
+            _config(args),
+            args.seed,
+            args.steps,
+            progress=not args.quiet,
+            init_from=args.init_from,
+            workers=args.workers,
+            num_envs=args.num_envs,
+            log=_note if args.json else print,
         )
+    except TrainingError as error:
+        raise CliError(str(error)) from None
     except WorkerError as error:
         raise CliError(f"{error}; the same command resumes from the last checkpoint in {args.out}") from None
     emit(summary, args.json)
     return 0
+
+
+def _note(message: str) -> None:
+    """A one-line message on stderr, so that ``--json`` output stays JSON alone."""
+    print(message, file=sys.stderr)
 
 
 def _policy(args: argparse.Namespace):
@@ -84,8 +91,10 @@ def run_run(args: argparse.Namespace) -> int:
 
 def run_info(args: argparse.Namespace) -> int:
     from krl.agent.observation import layout
+    from krl.task.reward import reward_name
 
     path, policy = _policy(args)
+    reward = policy.config.env.reward
     emit(
         {
             "policy": _shown(path),
@@ -95,7 +104,7 @@ def run_info(args: argparse.Namespace) -> int:
             "software": policy.metadata.get("software"),
             "residual_bound": list(policy.config.residual.residual_bound),
             "alpha": policy.config.residual.alpha,
-            "reward": policy.config.env.reward,
+            "reward": reward_name(reward) or reward.to_json(),
             "observation": [
                 {"name": row["name"], "slice": f"{row['start']}:{row['stop']}", "unit": row["unit"]}
                 for row in layout(policy.config.observation.features)
@@ -123,7 +132,9 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=int, help="seed of the run (default 0)")
     p.add_argument("--config", help="agent config file (.json or .toml; default: the thesis's agent-rp)")
     p.add_argument("--steps", type=int, help="env steps to train to (default: the config's total_steps)")
-    p.add_argument("--workers", type=int, help="environment processes (default: the config's)")
+    p.add_argument(
+        "--workers", type=int, help="environment processes (default: the config's; may change on a resume)"
+    )
     p.add_argument("--num-envs", type=int, help="environments per process (default: the config's)")
     p.add_argument(
         "--init-from",

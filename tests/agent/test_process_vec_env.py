@@ -1,4 +1,4 @@
-"""`krl.agent.workers.ProcessVecEnv`: the environments of one process, spread over worker processes."""
+"""`ProcessVecEnv` (`krl.agent.process_vec_env`): the environments of one process, over worker processes."""
 
 import os
 import signal
@@ -8,7 +8,7 @@ import pytest
 
 from krl.agent.config import AgentConfig, EnvConfig
 from krl.agent.env import ResidualVecEnv
-from krl.agent.workers import ProcessVecEnv, WorkerError, worker_cores
+from krl.agent.process_vec_env import ProcessVecEnv, WorkerError, worker_cores
 
 
 def test_workers_make_the_transitions_of_one_process():
