@@ -55,7 +55,7 @@ def test_a_run_that_leaves_the_landing_by_its_side():
 
 def test_the_geometry_is_read_from_the_course():
     geometry = stairs_geometry(load_course("stairs"))
-    assert geometry == {**GEOMETRY, "landing_height": pytest.approx(0.2)}
+    assert geometry == {**GEOMETRY, "half_width": 3.2, "landing_height": pytest.approx(0.2)}
 
 
 def test_a_traced_run_is_the_run_krl_evaluate_scores(tmp_path):
@@ -87,3 +87,23 @@ def test_a_traced_run_is_the_run_krl_evaluate_scores(tmp_path):
     }
     assert set(trace) == set(TRACE_FIELDS) and len(trace["time"]) == metrics["steps"]
     assert trace["residual"].shape == (metrics["steps"], 4, 3)
+
+
+def test_krl_agent_stairs_writes_the_figure_and_its_table(tmp_path, capsys):
+    import json
+
+    from krl.cli import main
+
+    course_file = tmp_path / "short-stairs.toml"
+    course_file.write_text(
+        'format = 1\nname = "short-stairs"\ntime_limit = 1.0\nd_min = 0.5\nwaypoints = [[2.0, 0.0]]\n'
+        'starts = [[0.0, 0.0, 0.0], [0.0, 0.3, 0.0]]\n\n[terrain]\nname = "stairs"\n'
+    )
+    argv = ["agent", "stairs", "--policy", "shipped=rp", "--course", str(course_file), "--out", str(tmp_path)]
+    assert main([*argv, "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert [run["policy"] for run in printed["runs"]] == ["shipped", "shipped"]
+    for kind in ("png", "json", "csv"):
+        assert (tmp_path / f"stairs-diagnosis.{kind}").is_file()
+    assert main(["agent", "stairs", "--policy", "rp", "--course", "flat", "--out", str(tmp_path)]) == 2
+    assert "not on stairs" in capsys.readouterr().err

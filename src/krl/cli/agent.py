@@ -123,6 +123,29 @@ def run_curves(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_stairs(args: argparse.Namespace) -> int:
+    from krl.agent.policy import policy_artifacts
+    from krl.analysis.agent.stairs import stairs_diagnosis, stairs_figure
+    from krl.eval.courses import load_course
+
+    policies: dict[str, Path] = {}
+    for text in args.policy:
+        label, _, spec = text.rpartition("=")
+        name, files = policy_artifacts(spec)
+        if len(files) > 1:
+            raise CliError(f"--policy {text}: {name} holds one policy per seed; give one of its files")
+        policies[label or name] = files[0][1]
+    course = load_course(args.course)
+    if course.terrain != "stairs":
+        raise CliError(f"--course {args.course} is on {course.terrain!r}, not on stairs")
+    written = stairs_figure(stairs_diagnosis(policies, course), course, Path(args.out))
+    emit(
+        {kind: written[kind] for kind in ("png", "json", "csv")} | {"runs": written["table"]["runs"]},
+        args.json,
+    )
+    return 0
+
+
 def register(subparsers) -> None:
     group = subparsers.add_parser("agent", help="the residual PPO agent").add_subparsers(
         dest="agent_command", required=True, metavar="AGENT_COMMAND"
@@ -169,3 +192,20 @@ def register(subparsers) -> None:
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run_curves)
+
+    p = group.add_parser(
+        "stairs",
+        help="why agents fall on a stairs course: their paths, falls, swing past the side, command following",
+    )
+    p.add_argument(
+        "--policy",
+        action="append",
+        required=True,
+        help="[LABEL=]POLICY: a shipped name (rp, base) or a policy file; repeat to compare",
+    )
+    p.add_argument(
+        "--course", default="stairs", help="a course on stairs: shipped name or file (default stairs)"
+    )
+    p.add_argument("--out", required=True, help="output folder (stairs-diagnosis.png, .json, .csv)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=run_stairs)

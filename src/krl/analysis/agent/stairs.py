@@ -140,8 +140,8 @@ def stairs_figure(results: dict[str, list[dict]], course: Course, out_dir: str |
     colours = dict(zip(results, plt.rcParams["axes.prop_cycle"].by_key()["color"], strict=False))
     _draw_paths(axes[0], results, course, geometry, colours)
     for ax, key, label in (
-        (axes[1], "forward_speed_error", "forward speed − command, first 15 s [m/s]"),
-        (axes[2], "yaw_rate_gain", "mean |yaw rate| / mean |command|, first 15 s"),
+        (axes[1], "forward_speed_error", "forward speed − commanded [m/s]"),
+        (axes[2], "yaw_rate_gain", "mean |yaw rate| / mean |commanded|"),
     ):
         _draw_following(ax, results, key, label, geometry, colours)
     fig.tight_layout()
@@ -192,5 +192,5 @@ def _draw_following(ax, results, key: str, label: str, geometry, colours: dict[s
                 ax.plot(run[key], run["landing_max_abs_y_feet"], marker, color=colours[name], ms=7)
     ax.axhline(geometry["half_width"], color="k", lw=1, ls="--")
     ax.text(ax.get_xlim()[0], geometry["half_width"], " side of the landing", fontsize=7, va="bottom")
-    ax.set(xlabel=label, ylabel="largest |y| of a foot over the landing [m]")
+    ax.set(xlabel=label, ylabel="largest |y| of a foot over the landing [m]", title="first 15 s (x: fell)")
     ax.grid(alpha=0.3)
