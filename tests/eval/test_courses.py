@@ -2,6 +2,7 @@
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from krl.eval.courses import SHIPPED_COURSES, THESIS_COURSES, CourseError, load_course
@@ -117,3 +118,24 @@ def test_the_table_tops_commanded_paths_stay_on_the_plate():
         assert _largest_excursion(course, lag) < half - 0.5
     old = load_course(Path(__file__).parents[2] / "examples" / "courses" / "tabletop-3m.toml")
     assert _largest_excursion(old, 0.0) > old.build().terrain.landmarks["corner_max"][0]
+
+
+def _largest_side_excursion(course, lags=(0.0, 0.1, 0.2, 0.3)) -> float:
+    """Largest |y| of the commanded paths from every start while over the stairs (x within 0.3 m of them)."""
+    marks = course.build().terrain.landmarks
+    low, high = marks["first_riser"][0] - 0.3, marks["stairs_end"][0] + 0.3
+    largest = 0.0
+    for start in range(len(course.starts)):
+        for lag in lags:
+            path = course.commanded_path(start, lag)
+            over = (path[:, 0] > low) & (path[:, 0] < high)
+            largest = max(largest, float(np.abs(path[over, 1]).max()))
+    return largest
+
+
+def test_the_stairs_commanded_paths_stay_on_the_stairs():
+    """The 3 m stairs shipped until the stairs diagnosis steered a lagging follower off the landing's side."""
+    course = load_course("stairs")
+    assert _largest_side_excursion(course) < 0.5 * course.terrain_params["width"] - 0.6
+    old = load_course(Path(__file__).parents[2] / "examples" / "courses" / "stairs-3m.toml")
+    assert _largest_side_excursion(old) > 0.5 * 3.0
