@@ -95,3 +95,21 @@ def test_a_kernel_only_export_never_leaves_an_unlisted_policy_beside_it(tmp_path
     contract = json.loads((out / "contract.json").read_text())
     assert "policy" not in contract
     assert sorted(path.name for path in out.iterdir()) == ["contract.json", "kernel.onnx"]
+
+
+def test_without_the_export_extra_the_error_is_one_line(tmp_path, monkeypatch, capsys):
+    import builtins
+
+    from krl.cli import main
+
+    real_import = builtins.__import__
+
+    def no_onnx(name, *args, **kwargs):
+        if name == "onnx" or name.startswith("onnx."):
+            raise ImportError("No module named 'onnx'")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_onnx)
+    assert main(["export", "--out", str(tmp_path / "onnx")]) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1 and "pip install" in error

@@ -8,14 +8,18 @@ from __future__ import annotations
 
 import argparse
 
-from krl.cli.common import emit
+from krl.cli.common import CliError, emit
 
 
 def run_export(args: argparse.Namespace) -> int:
     """Export what the options name and print the files written."""
     from krl.apps.export import export
 
-    emit(export(args.out, policy=args.policy, kernel=args.kernel), args.json)
+    try:
+        written = export(args.out, policy=args.policy, kernel=args.kernel)
+    except ImportError as error:  # the optional export extra is not installed: one line, not a traceback
+        raise CliError(str(error)) from None
+    emit(written, args.json)
     return 0
 
 
