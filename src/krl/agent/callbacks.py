@@ -160,20 +160,22 @@ class Checkpointer(BaseCallback):
         if folder.exists():
             shutil.rmtree(folder)
         os.replace(temporary, folder)
-        export_policy(model, normaliser, self.config, self._metadata(state)).save(self.out / "policy.npz")
+        metadata = self._metadata(state, model.device.type)
+        export_policy(model, normaliser, self.config, metadata).save(self.out / "policy.npz")
         write_atomic(directory / "latest", (name + "\n").encode())
         remove_old_checkpoints(directory, name)
         return folder
 
-    def _metadata(self, state: dict[str, Any]) -> dict[str, Any]:
-        """The exported policy's header: kernel, how it was trained (``state``: a checkpoint's state.json)
-        and the software."""
+    def _metadata(self, state: dict[str, Any], device: str) -> dict[str, Any]:
+        """The exported policy's header: kernel, how it was trained (``state``: a checkpoint's state.json;
+        the workers and PPO's ``device`` of this sitting) and the software."""
         training = {
             "env_steps": state["num_timesteps"],
             "wall_seconds": state["wall_seconds"],
             "seed": self.run["seed"],
             "workers": self.config.workers,
             "num_envs": self.config.num_envs,
+            "device": device,
         }
         if "initialized_from" in self.run:
             training["initialized_from"] = self.run["initialized_from"]

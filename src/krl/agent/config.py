@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import types
 import typing
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -229,8 +230,9 @@ class AgentConfig:
     ppo: PPOConfig = field(default_factory=PPOConfig)
     num_envs: int = DEFAULT_NUM_ENVS
     """Environments per worker process (ours; benchmarks/README.md measured the choice)."""
-    workers: int = 2
-    """Worker processes stepping environments (one per core)."""
+    workers: int | None = None
+    """Worker processes stepping environments; None: one per usable core, resolved when a run starts and
+    saved so in its ``config.json``."""
     total_steps: int = 20_000_000
     """Env steps to train for (thesis: 2e7)."""
     checkpoint_every: int = 1_000_000
@@ -239,6 +241,8 @@ class AgentConfig:
     def __post_init__(self) -> None:
         for name in ("num_envs", "workers", "total_steps", "checkpoint_every"):
             value = getattr(self, name)
+            if name == "workers" and value is None:
+                continue
             if not (isinstance(value, int) and value >= 1):
                 raise AgentConfigError(f"{name} must be an integer >= 1, got {value!r}")
 
@@ -305,6 +309,9 @@ def _from_mapping(cls: type, data: Any, where: str):
 def _typed(where: str, value: Any, hint: Any) -> Any:
     """``value`` as the type ``hint`` names (bool, int, float, str or a tuple of them), or a one-line
     AgentConfigError: ``"no"`` is not a bool, ``true`` is not a number, ``1.5`` is not an integer."""
+    if isinstance(hint, types.UnionType):  # X | None: None, or an X
+        kind = next(arg for arg in typing.get_args(hint) if arg is not type(None))
+        return None if value is None else _typed(where, value, kind)
     if typing.get_origin(hint) is tuple:
         if not isinstance(value, (list, tuple)):
             raise AgentConfigError(f"{where} must be a list, got {value!r}")

@@ -51,7 +51,7 @@ from krl.agent.network import SharedExtractor
 from krl.agent.process_vec_env import ProcessVecEnv
 from krl.util.hashing import file_sha256
 from krl.util.output import write_atomic
-from krl.util.parallel import Interrupted
+from krl.util.parallel import Interrupted, usable_cores
 
 RESUME_SEED_STRIDE = 7919
 """A resumed run's environments are seeded ``seed + RESUME_SEED_STRIDE * (checkpoints passed + 1)`` (a
@@ -139,6 +139,7 @@ def train(
     init_from: str | Path | None = None,
     workers: int | None = None,
     num_envs: int | None = None,
+    device: str = "auto",
 ) -> dict[str, Any]:
     """Train (or resume) a residual agent in ``out``; returns a summary (steps, wall time, policy path).
 
@@ -152,8 +153,11 @@ def train(
         progress: show a progress bar.
         log: where one-line messages go.
         init_from: a run folder whose newest checkpoint a new run starts from (module docstring).
-        workers: worker processes (default: the config's); may differ from a resumed run's.
+        workers: worker processes (default: the config's, and where it gives none one per usable core); may
+            differ from a resumed run's.
         num_envs: environments per worker (default: the config's); must match a resumed run's.
+        device: where PPO's update runs: ``cpu``, ``cuda`` or ``auto`` (CUDA when PyTorch sees a device);
+            the environments always run on the CPU workers.
 
     Raises:
         TrainingError: (one line, before anything is written) a run folder or checkpoint that cannot be
@@ -162,7 +166,8 @@ def train(
     out = Path(out)
     if total_steps is not None and total_steps < 1:
         raise TrainingError(f"total_steps must be at least 1 env step, got {total_steps}")
-    config, run = _open_run(out, config, seed, init_from, workers, num_envs)
+    device = training_device(device)
+    config, run = _open_run(out, config, seed, init_from, workers, num_envs, device)
     total = config.total_steps if total_steps is None else total_steps
     latest = _latest_checkpoint(out)
     done, wall_before = (0, 0.0) if latest is None else _read(read_state, latest)
@@ -175,7 +180,7 @@ def train(
     env_seed = _env_seed(run["seed"], config, None if latest is None else done)
     venv = ProcessVecEnv(config, config.workers, config.num_envs, env_seed, _run_kernel(out, config, run))
     try:
-        model = _new_model(config, venv, run["seed"], total)
+        model = _new_model(config, venv, run["seed"], total, device)
         if latest is not None:
             _resume(model, start)
             log(f"resuming {out} from {latest.name} ({done} env steps)")
@@ -187,6 +192,17 @@ def train(
         return _learn(model, out, config, run, total, Clock(wall_before), progress, log)
     finally:
         venv.close()
+
+
+def training_device(asked: str) -> str:
+    """``cpu`` or ``cuda`` for ``asked`` (``auto``: CUDA when PyTorch sees a device); TrainingError (one
+    line) for an unknown name or CUDA asked for where there is none."""
+    if asked not in ("auto", "cpu", "cuda"):
+        raise TrainingError(f"unknown device {asked!r}; known: auto, cpu, cuda")
+    available = torch.cuda.is_available()
+    if asked == "cuda" and not available:
+        raise TrainingError("device cuda asked for, but PyTorch sees no CUDA device")
+    return "cuda" if asked == "cuda" or (asked == "auto" and available) else "cpu"
 
 
 def _summary(out: Path, env_steps: int, wall_seconds: float) -> dict[str, Any]:
@@ -205,9 +221,10 @@ def _open_run(
     init_from: str | Path | None,
     workers: int | None,
     num_envs: int | None,
+    device: str,
 ) -> tuple[AgentConfig, dict[str, Any]]:
     """The run's config and run record: read (a resumption, :func:`_reopen_run`) or written (a new run,
-    :func:`_new_run`), with the ``workers`` and ``num_envs`` given."""
+    :func:`_new_run`, on ``device``), with the ``workers`` and ``num_envs`` given."""
     overrides = {
         name: value for name, value in (("workers", workers), ("num_envs", num_envs)) if value is not None
     }
@@ -215,7 +232,9 @@ def _open_run(
     if (out / "config.json").is_file():
         return _reopen_run(out, config, seed, source, overrides)
     config = replace(config or AgentConfig(), **overrides)
-    return config, _new_run(out, config, seed, source)
+    if config.workers is None:
+        config = replace(config, workers=usable_cores())
+    return config, _new_run(out, config, seed, source, device)
 
 
 def _reopen_run(
@@ -260,9 +279,11 @@ def _difference(stored: AgentConfig, asked: AgentConfig) -> str | None:
     return None
 
 
-def _new_run(out: Path, config: AgentConfig, seed: int | None, init_from: Path | None) -> dict[str, Any]:
-    """Check the kernel (and the run to start from), then write the new run's ``run.json`` and
-    ``config.json``; returns the run record."""
+def _new_run(
+    out: Path, config: AgentConfig, seed: int | None, init_from: Path | None, device: str
+) -> dict[str, Any]:
+    """Check the kernel (and the run to start from), then write the new run's ``run.json`` (with the
+    workers and the device it starts on) and ``config.json``; returns the run record."""
     from krl.kernel.model import load_kernel
     from krl.kernel.registry import resolve_model
 
@@ -274,6 +295,8 @@ def _new_run(out: Path, config: AgentConfig, seed: int | None, init_from: Path |
         "seed": 0 if seed is None else seed,
         "kernel_path": str(kernel_path.resolve()),
         "kernel_sha256": file_sha256(kernel_path),
+        "workers": config.workers,
+        "device": device,
         "software": _software(),
     }
     if init_from is not None:
@@ -377,9 +400,9 @@ def _env_seed(seed: int, config: AgentConfig, resumed_at: int | None) -> int:
     return seed + RESUME_SEED_STRIDE * (resumed_at // config.checkpoint_every + 1)
 
 
-def _new_model(config: AgentConfig, venv, seed: int, total: int) -> ThreadedPPO:
-    """A PPO of the config's settings, freshly initialised from ``seed``, on ``venv`` wrapped in a running
-    normaliser; its learning rate follows the schedule up to ``total`` env steps."""
+def _new_model(config: AgentConfig, venv, seed: int, total: int, device: str) -> ThreadedPPO:
+    """A PPO of the config's settings on ``device``, freshly initialised from ``seed``, on ``venv`` wrapped
+    in a running normaliser; its learning rate follows the schedule up to ``total`` env steps."""
     ppo = config.ppo
     env = VecNormalize(
         venv, norm_obs=ppo.normalize_observations, norm_reward=ppo.normalize_rewards, gamma=ppo.gamma
@@ -397,7 +420,7 @@ def _new_model(config: AgentConfig, venv, seed: int, total: int) -> ThreadedPPO:
         ent_coef=ppo.ent_coef,
         policy_kwargs=_policy_kwargs(config),
         seed=seed,
-        device="cpu",
+        device=device,
         verbose=0,
     )
     model.update_threads = config.workers  # the workers wait while PPO updates
@@ -408,7 +431,7 @@ def _load(model: PPO, checkpoint: Checkpoint, settings: bool) -> None:
     """The checkpoint's network, optimiser state and normaliser statistics (with ``settings``, also the
     normaliser's settings) into ``model``, which must have the same layers."""
     try:
-        model.set_parameters(checkpoint.params, exact_match=True, device="cpu")
+        model.set_parameters(checkpoint.params, exact_match=True, device=model.device)
         if checkpoint.normaliser is not None:
             checkpoint.normaliser.restore(model.get_vec_normalize_env(), settings)
     except Exception as error:  # torch raises RuntimeError, KeyError or ValueError on a mismatch

@@ -32,6 +32,7 @@ def run_train(args: argparse.Namespace) -> int:
             init_from=args.init_from,
             workers=args.workers,
             num_envs=args.num_envs,
+            device=args.device,
             log=_note if args.json else print,
         )
     except TrainingError as error:
@@ -156,9 +157,17 @@ def register(subparsers) -> None:
     p.add_argument("--config", help="agent config file (.json or .toml; default: the thesis's agent-rp)")
     p.add_argument("--steps", type=int, help="env steps to train to (default: the config's total_steps)")
     p.add_argument(
-        "--workers", type=int, help="environment processes (default: the config's; may change on a resume)"
+        "--workers",
+        type=int,
+        help="environment processes (default: the config's, else one per usable core; may change to resume)",
     )
     p.add_argument("--num-envs", type=int, help="environments per process (default: the config's)")
+    p.add_argument(
+        "--device",
+        choices=("auto", "cpu", "cuda"),
+        default="auto",
+        help="where PPO's update runs (default auto: CUDA when PyTorch sees a device); recorded in run.json",
+    )
     p.add_argument(
         "--init-from",
         help="a new run starts from this run folder's newest checkpoint (fine-tuning; docs/agent.md)",

@@ -62,6 +62,13 @@ class Interrupted(KeyboardInterrupt):
         """Indices (into the ``jobs`` given) of the jobs whose results were delivered, ascending."""
 
 
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the system has one, else all)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
 def run_jobs(
     function: Callable[[J], R],
     jobs: Sequence[J],
