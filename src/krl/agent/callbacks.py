@@ -40,10 +40,10 @@ class Clock:
 class EpisodeLog(BaseCallback):
     """Logs, after every rollout (TensorBoard and ``progress.csv``), the means over the episodes that
     ended in it: ``episode/reward``, ``episode/targets_reached``, ``episode/fall_rate``,
-    ``episode/length_s`` [s], ``episode/count``, ``reward_terms/<term>`` (per-episode sums); and
-    ``time/env_steps_per_s`` (the rollout's and the previous update's wall time together),
-    ``time/wall_seconds``. SB3 adds ``train/approx_kl``, ``train/clip_fraction``,
-    ``train/learning_rate`` and the losses."""
+    ``episode/success_rate`` (:data:`SUCCESS_TARGETS`), ``episode/length_s`` [s], ``episode/count``,
+    ``reward_terms/<term>`` (per-episode sums); and ``time/env_steps_per_s`` (the rollout's and the
+    previous update's wall time together), ``time/wall_seconds``. SB3 adds ``train/approx_kl``,
+    ``train/clip_fraction``, ``train/learning_rate`` and the losses."""
 
     def __init__(self, clock: Clock) -> None:
         super().__init__()
@@ -76,10 +76,17 @@ class EpisodeLog(BaseCallback):
         record("episode/reward", float(np.mean([e["r"] for e in episodes])))
         record("episode/targets_reached", float(np.mean([e["targets_reached"] for e in episodes])))
         record("episode/fall_rate", float(np.mean([e["fell"] for e in episodes])))
+        success = [e["targets_reached"] >= SUCCESS_TARGETS and not e["fell"] for e in episodes]
+        record("episode/success_rate", float(np.mean(success)))
         record("episode/length_s", float(np.mean([e["l"] for e in episodes])) * CONTROL_DT)
         record("episode/count", len(episodes))
         for name in episodes[0]["terms"]:
             record(f"reward_terms/{name}", float(np.mean([e["terms"].get(name, 0.0) for e in episodes])))
+
+
+SUCCESS_TARGETS: int = 2
+"""An episode succeeds when it reaches at least this many waypoints without falling (the thesis's success
+rate of the agent studies, 4.2.8.2: "navigating to at least two target locations and not falling")."""
 
 
 class ProgressBar(BaseCallback):

@@ -117,9 +117,21 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_curves(args: argparse.Namespace) -> int:
-    from krl.agent.curves import plot_training_curves
+    from krl.agent.curves import plot_seed_groups, plot_training_curves
 
-    paths = plot_training_curves([Path(run) for run in args.run], Path(args.out))
+    if not args.run and not args.group:
+        raise CliError("give run folders, or --group LABEL=RUN,RUN,... (or both)")
+    groups: dict[str, list[Path]] = {}
+    for text in args.group or []:
+        label, _, runs = text.partition("=")
+        if not label or not runs:
+            raise CliError(f"--group {text!r}: expected LABEL=RUN,RUN,...")
+        groups[label] = [Path(run) for run in runs.split(",")]
+    paths = []
+    if args.run:
+        paths += plot_training_curves([Path(run) for run in args.run], Path(args.out))
+    if groups:
+        paths += plot_seed_groups(groups, Path(args.out))
     emit({"figures": [str(p) for p in paths]}, args.json)
     return 0
 
@@ -197,7 +209,13 @@ def register(subparsers) -> None:
     p = group.add_parser(
         "curves", help="training curves (reward, targets reached, falls vs env steps) as PNG"
     )
-    p.add_argument("run", nargs="+", help="run folders of krl agent train")
+    p.add_argument("run", nargs="*", help="run folders of krl agent train: one line each")
+    p.add_argument(
+        "--group",
+        action="append",
+        help="LABEL=RUN,RUN,...: the runs of one agent's seeds, drawn as their mean and spread "
+        "(seed-groups.png, Fig. 4.23); repeat for each agent",
+    )
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run_curves)

@@ -1,0 +1,91 @@
+"""Seed groups of training curves (Fig. 4.23): mean and spread over runs on a common env-step grid."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+
+from krl.agent.curves import STEPS_COLUMN, group_curve
+from krl.cli import main
+
+COLUMNS = (
+    STEPS_COLUMN,
+    "episode/reward",
+    "episode/targets_reached",
+    "episode/fall_rate",
+    "episode/success_rate",
+)
+
+
+def fake_run(folder, steps, targets, success=None):
+    """A run folder whose progress.csv logs ``targets`` (and ``success``, if given) at ``steps``."""
+    folder.mkdir(parents=True)
+    columns = COLUMNS if success is not None else COLUMNS[:-1]
+    with open(folder / "progress.csv", "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(columns)
+        for i, step in enumerate(steps):
+            row = [step, 100.0, targets[i], 0.2]
+            writer.writerow(row + ([success[i]] if success is not None else []))
+    return folder
+
+
+def test_a_group_is_the_mean_and_spread_of_its_runs_on_a_common_grid(tmp_path):
+    a = fake_run(tmp_path / "a", [0, 400_000, 800_000], [1.0, 3.0, 5.0], [0.0, 0.5, 1.0])
+    b = fake_run(tmp_path / "b", [200_000, 600_000], [2.0, 4.0], [0.2, 0.6])
+    curve = group_curve([a, b], "episode/targets_reached")
+    # the grid spans the steps every run logs (2e5 to 6e5), every 2e5; a is interpolated linearly
+    np.testing.assert_allclose(curve["steps"], [200_000, 400_000, 600_000])
+    np.testing.assert_allclose(curve["mean"], [2.0, 3.0, 4.0])
+    np.testing.assert_allclose(curve["std"], [0.0, 0.0, 0.0], atol=1e-12)
+    success = group_curve([a, b], "episode/success_rate")
+    np.testing.assert_allclose(success["mean"], [0.225, 0.45, 0.675])
+    np.testing.assert_allclose(success["std"], [0.025, 0.05, 0.075])
+
+
+def test_runs_that_never_logged_a_column_are_left_out(tmp_path):
+    old = fake_run(tmp_path / "old", [0, 200_000], [1.0, 2.0])
+    new = fake_run(tmp_path / "new", [0, 200_000], [1.0, 4.0], [0.0, 1.0])
+    assert group_curve([old, new], "episode/success_rate")["runs"] == 1
+    assert group_curve([old, new], "episode/targets_reached")["runs"] == 2
+    assert group_curve([old], "episode/success_rate")["runs"] == 0
+
+
+def test_krl_agent_curves_draws_groups_and_refuses_bad_ones(tmp_path, capsys):
+    a = fake_run(tmp_path / "a", [0, 200_000, 400_000], [1.0, 2.0, 3.0], [0.0, 0.5, 1.0])
+    b = fake_run(tmp_path / "b", [0, 200_000, 400_000], [2.0, 3.0, 4.0], [0.5, 0.5, 0.5])
+    out = tmp_path / "figures"
+    out.mkdir()
+    assert main(["agent", "curves", "--group", f"agent-rp={a},{b}", "--out", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["figures"] == [str(out / "seed-groups.png")]
+    assert (out / "seed-groups.png").stat().st_size > 0
+    for argv, message in (
+        (["--out", str(out)], "give run folders, or --group"),
+        (["--group", "agent-rp", "--out", str(out)], "expected LABEL=RUN"),
+        (["--group", f"x={tmp_path / 'none'}", "--out", str(out)], "no training log"),
+    ):
+        assert main(["agent", "curves", *argv]) == 2
+        error = capsys.readouterr().err
+        assert message in error and error.count("\n") == 1
+
+
+def test_the_log_records_the_rollouts_success_rate():
+    from types import SimpleNamespace
+
+    from krl.agent.callbacks import Clock, EpisodeLog
+
+    recorded = {}
+    log = EpisodeLog(Clock(0.0))
+    log.model = SimpleNamespace(logger=SimpleNamespace(record=recorded.__setitem__), num_timesteps=0)
+    episodes = [(2, False), (1, False), (5, True), (3, False)]  # succeed: >= 2 targets and no fall
+    log.locals = {
+        "infos": [
+            {"episode": {"r": 1.0, "l": 200, "targets_reached": n, "fell": fell, "terms": {"fall": 0.0}}}
+            for n, fell in episodes
+        ]
+    }
+    log._on_step()
+    log._on_rollout_end()
+    assert recorded["episode/success_rate"] == 0.5 and recorded["episode/fall_rate"] == 0.25
