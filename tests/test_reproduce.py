@@ -3,6 +3,7 @@ docs/reproduce.md shows the plan as it is."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -38,7 +39,7 @@ def test_done_steps_are_skipped_and_a_failure_resumes_there(tmp_path):
     lines: list[str] = []
     assert reproduce(runs, docs, True, lambda argv: calls.append(argv) or 0, log=lines.append) == 0
     assert calls[0] == list(steps[2].argv) and len(calls) == len(steps) - 2
-    assert (runs / "quick" / "agent-rp.json").is_file()
+    assert (runs / "quick" / "agent-rp-seed150.json").is_file()
     assert lines[-1] == "everything is reproduced"
 
 
@@ -61,3 +62,29 @@ def test_the_documented_tables_are_the_plan(quick):
         for number, step in enumerate(steps, start=1)
     ]
     assert f"Total: about {sum(step.minutes for step in steps):.0f} min." in table
+
+
+def test_both_agents_are_trained_and_scored_from_each_chosen_seed(tmp_path):
+    steps = {step.name: step for step in plan(tmp_path, tmp_path / "docs", seeds=[345, 150])}
+    trained = [name for name in steps if name.startswith("agent-") and "seed" in name]
+    assert trained == ["agent-rp-seed345", "agent-rp-seed150", "agent-base-seed345", "agent-base-seed150"]
+    base = steps["agent-base-seed150"]
+    assert f"--out {tmp_path}/agent-base/seed150 --seed 150" in base.command
+    config = json.loads(base.config[1])
+    assert config["env"] == {"reward": "base"} and (config["num_envs"], config["workers"]) == (16, 2)
+    assert "env" not in json.loads(steps["agent-rp-seed150"].config[1])
+    courses = steps["evaluate-courses"].command
+    assert f"--controller agent:{tmp_path}/agent-rp --controller agent:{tmp_path}/agent-base" in courses
+    assert "--seeds 345,150" in courses and "--seeds 345,150" in steps["evaluate-pushes"].command
+    assert "--seeds 345,150" in steps["study-variants"].command
+    assert [step.name for step in plan(tmp_path, tmp_path, quick=True)].count("agent-rp-seed150") == 1
+    with pytest.raises(ValueError, match="seeds must differ"):
+        plan(tmp_path, tmp_path, seeds=[150, 150])
+
+
+def test_reproduce_seeds_option_reaches_the_plan(tmp_path, capsys):
+    assert main(["reproduce", "--dry-run", "--seeds", "215", "--runs", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    assert "agent-base-seed215" in printed and "seed150" not in printed
+    assert main(["reproduce", "--dry-run", "--seeds", "x", "--runs", str(tmp_path)]) == 2
+    assert "--seeds expects comma-separated integers" in capsys.readouterr().err

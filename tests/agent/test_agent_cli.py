@@ -25,15 +25,18 @@ def test_agent_run_and_info_with_a_policy_file(tmp_path, capsys):
 
 def test_a_shipped_policy_is_named_the_same_on_every_machine(capsys):
     assert main(["agent", "info", "--json"]) == 0
-    assert json.loads(capsys.readouterr().out)["policy"] == "krl/agent/policies/agent-rp.npz"
+    assert json.loads(capsys.readouterr().out)["policy"] == "krl/agent/policies/agent-rp/seed150.npz"
 
 
-@pytest.mark.parametrize("name", ["rp", "base"])
-def test_each_shipped_agent_was_trained_with_its_own_reward(name, capsys):
+@pytest.mark.parametrize(
+    "name, file",
+    [("rp", "agent-rp/seed150.npz"), ("rp@215", "agent-rp/seed215.npz"), ("base", "agent-base.npz")],
+)
+def test_each_shipped_agent_was_trained_with_its_own_reward(name, file, capsys):
     assert main(["agent", "info", "--policy", name, "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
-    assert info["policy"] == f"krl/agent/policies/agent-{name}.npz"
-    assert info["reward"] == name and info["kernel"] == "base"
+    assert info["policy"] == f"krl/agent/policies/{file}"
+    assert info["reward"] == name.partition("@")[0] and info["kernel"] == "base"
     assert info["training"]["env_steps"] >= 20_000_000
 
 

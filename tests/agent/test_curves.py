@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import shutil
 
 import numpy as np
 
@@ -61,6 +62,11 @@ def test_krl_agent_curves_draws_groups_and_refuses_bad_ones(tmp_path, capsys):
     assert main(["agent", "curves", "--group", f"agent-rp={a},{b}", "--out", str(out), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["figures"] == [str(out / "seed-groups.png")]
     assert (out / "seed-groups.png").stat().st_size > 0
+    group = tmp_path / "agent-base"
+    for seed, run in ((150, a), (215, b)):
+        shutil.copytree(run, group / f"seed{seed}")
+    assert main(["agent", "curves", "--group", f"agent-base={group}", "--out", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["figures"] == [str(out / "seed-groups.png")]
     for argv, message in (
         (["--out", str(out)], "give run folders, or --group"),
         (["--group", "agent-rp", "--out", str(out)], "expected LABEL=RUN"),

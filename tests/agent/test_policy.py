@@ -11,8 +11,9 @@ from agent_fakes import make_policy
 
 from krl.agent.config import AgentConfig, ResidualConfig
 from krl.agent.network import export_policy
-from krl.agent.policy import PolicyFileError, load_policy, policy_artifacts, shipped_policy_dir
+from krl.agent.policy import PolicyFileError, load_policy, one_policy, policy_artifacts, shipped_policy_dir
 from krl.kernel.registry import shipped_model_path
+from krl.util.thesis import THESIS_SEEDS
 
 
 def test_numpy_inference_matches_sb3_with_its_normaliser(small_config):
@@ -95,6 +96,40 @@ def test_per_seed_folders(tmp_path):
     assert zipfile.is_zipfile(folder / "again.npz")
 
 
+def test_a_folder_of_run_folders_is_a_seed_group_and_at_picks_one_seed(tmp_path):
+    group = tmp_path / "agent-rp"
+    paths = {
+        seed: make_policy(AgentConfig(), seed=seed).save(group / f"seed{seed}" / "policy.npz")
+        for seed in THESIS_SEEDS
+    }
+    name, files = policy_artifacts(str(group))
+    assert name == "rp" and files == sorted(paths.items())
+    assert policy_artifacts(f"{group}@345") == ("rp-seed345", [(None, paths[345])])
+    assert one_policy(str(group)) == ("rp-seed150", paths[150])
+    with pytest.raises(PolicyFileError, match=r"has no policy for seed 7 \(seeds: 150, 215, 345, 556\)"):
+        policy_artifacts(f"{group}@7")
+    with pytest.raises(PolicyFileError, match="one policy file, not a seed group"):
+        policy_artifacts(f"{paths[150]}@150")
+
+
+def test_a_seed_group_is_one_recipe(tmp_path):
+    group = tmp_path / "mixed"
+    make_policy(AgentConfig(), seed=1).save(group / "seed1.npz")
+    make_policy(AgentConfig(num_envs=50), seed=2).save(group / "seed2.npz")
+    with pytest.raises(PolicyFileError, match=r"mixes recipes: .* differ in num_envs"):
+        policy_artifacts(str(group))
+
+
+def test_the_shipped_agent_rp_is_a_group_of_thesis_seeds():
+    name, files = policy_artifacts("")
+    assert name == "rp" and len(files) >= 2
+    for seed, path in files:
+        assert seed in THESIS_SEEDS and path.name == f"seed{seed}.npz"
+        policy = load_policy(path)
+        assert policy.metadata["training"]["seed"] == seed
+        assert policy.metadata["training"]["env_steps"] >= 20_000_000 and policy.config.num_envs == 16
+
+
 def test_a_runs_policy_npz_takes_its_folders_name(tmp_path):
     path = make_policy(AgentConfig()).save(tmp_path / "agent-mine-seed7" / "policy.npz")
     name, files = policy_artifacts(str(path))
@@ -112,5 +147,7 @@ def test_a_policy_file_records_its_whole_reward_and_shipped_names_still_load(tmp
     assert recorded == json.loads(json.dumps(custom.to_json()))
     assert load_policy(path).config.env.reward == custom
     # the shipped files recorded a name ("rp", "base"); it maps to the same reward
-    assert load_policy(shipped_policy_dir() / "agent-rp.npz").config.env.reward == EVALUATION_REWARD
+    assert (
+        load_policy(shipped_policy_dir() / "agent-rp" / "seed150.npz").config.env.reward == EVALUATION_REWARD
+    )
     assert load_policy(shipped_policy_dir() / "agent-base.npz").config.env.reward == AGENT_BASE_REWARD

@@ -71,7 +71,7 @@ def test_a_traced_run_is_the_run_krl_evaluate_scores(tmp_path):
         'starts = [[0.0, 0.0, 0.0]]\n\n[terrain]\nname = "stairs"\n'
     )
     course = load_course(course_file)
-    policy = shipped_policy_dir() / "agent-rp.npz"
+    policy = shipped_policy_dir() / "agent-rp" / "seed150.npz"
     trace, metrics = trace_course_run(policy, course, 0)
     expected = score_walk(
         A1Sim(course.build()),

@@ -28,7 +28,8 @@ starts = [[0.0, 0.0, 0.0]]
 name = "flat"
 """
 
-SHIPPED_RP = shipped_policy_dir() / "agent-rp.npz"
+SHIPPED_GROUP = shipped_policy_dir() / "agent-rp"
+SHIPPED_RP = SHIPPED_GROUP / "seed150.npz"
 
 
 @pytest.fixture
@@ -62,7 +63,7 @@ def copy_of(source: Path, target: Path) -> Path:
     "options, message",
     [
         (["--course", "TINY", "--seeds", "150"], "no policy for seed 150 (has seeds 1, 2)"),
-        (["--push-sweep", "--attempts", "1", "--magnitudes", "300"], "holds one policy per seed"),
+        (["--push-sweep", "--attempts", "1", "--seeds", "2,3"], "no policy for seed 3 (has seeds 1, 2)"),
     ],
 )
 def test_a_run_without_its_policy_is_refused_before_anything_is_written(
@@ -81,16 +82,38 @@ def test_controllers_of_no_file_still_make_their_tasks(tiny):
     from krl.eval import evaluate
     from krl.eval.courses import load_course
 
-    for text in ("expert", "kernel", "agent"):
+    for text in ("expert", "kernel", "agent:rp@150"):
         tasks = evaluate.course_tasks(parse_controller(text), [load_course(tiny)], [150, 215])
         assert [task.key for task in tasks] == ["tiny/start0"]
+
+
+def test_a_seed_group_runs_every_seed_it_holds_unless_told(tmp_path, tiny):
+    from krl.eval import evaluate
+    from krl.eval.courses import load_course
+    from krl.eval.episodes import PushSweep
+
+    spec = parse_controller(f"agent:{per_seed_folder(tmp_path / 'agent-mine', [556, 150, 345, 215])}")
+    course = load_course(tiny)
+    keys = [task.key for task in evaluate.course_tasks(spec, [course])]
+    assert keys == [f"tiny/start0-seed{seed}" for seed in (150, 215, 345, 556)]
+    assert [task.seed for task in evaluate.course_tasks(spec, [course], [345])] == [345]
+    sweep = PushSweep(magnitudes=(300.0,), attempts=2)
+    pushes = evaluate.push_tasks(spec, sweep, [150, 215])
+    assert [(task.key, task.seed) for task in pushes] == [
+        ("push/m300-a0-seed150", 150),
+        ("push/m300-a1-seed150", 150),
+        ("push/m300-a0-seed215", 215),
+        ("push/m300-a1-seed215", 215),
+    ]
+    assert pushes[0].identity()["seed"] == 150
+    assert "seed" not in evaluate.push_tasks(parse_controller("kernel"), sweep)[0].identity()
 
 
 @pytest.mark.parametrize(
     "spellings",
     [
-        ["agent", f"agent:{SHIPPED_RP}"],
-        ["agent", "agent:rp", "agent:COPY/agent-rp.npz"],
+        ["agent", "agent:rp", f"agent:{SHIPPED_GROUP}"],
+        ["agent:rp@150", f"agent:{SHIPPED_RP}", "agent:COPY/agent-rp.npz"],
         [f"agent:{SHIPPED_RP}", "agent:COPY/agent-rp.npz", "agent:OTHER/agent-rp.npz"],
         ["kernel", f"kernel:{shipped_model_path('base')}", "kernel:COPY/kernel-base.npz"],
     ],
@@ -117,8 +140,9 @@ def test_two_policies_of_one_label_are_still_refused(tmp_path):
 
 def test_the_shipped_policy_and_its_path_are_evaluated_once(tmp_path, tiny, capsys):
     out = tmp_path / "out"
-    controllers = ["--controller", "agent", "--controller", f"agent:{SHIPPED_RP}"]
-    assert main(evaluate_argv(out, *controllers, "--course", str(tiny))) == 0
+    controllers = ["--controller", "agent", "--controller", f"agent:{SHIPPED_GROUP}"]
+    assert main(evaluate_argv(out, *controllers, "--course", str(tiny), "--seeds", "150")) == 0
     summary = json.loads(capsys.readouterr().out)
     assert (summary["runs"], summary["ran"]) == (1, 1) and list(summary["controllers"]) == ["agent-rp"]
+    assert [row["seed"] for row in summary["controllers"]["agent-rp"]["tiny"]["by_seed"]] == [150]
     assert sorted(path.name for path in out.iterdir()) == ["agent-rp"]

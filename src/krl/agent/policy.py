@@ -30,8 +30,8 @@ FILE_FORMAT = "krl-policy"
 FILE_VERSION = 1
 
 SHIPPED_POLICIES: tuple[str, ...] = ("rp", "base")
-"""Agents krl ships or may ship (``src/krl/agent/policies/agent-<name>.npz``, or a folder
-``agent-<name>/`` of per-seed files); ``agent`` alone means ``rp``."""
+"""Agents krl ships or may ship (a seed group ``src/krl/agent/policies/agent-<name>/seed<S>.npz``, or one
+file ``agent-<name>.npz``); ``agent`` alone means ``rp``."""
 
 
 class PolicyFileError(ValueError):
@@ -194,44 +194,89 @@ def shipped_policy_dir() -> Path:
     return Path(str(files("krl.agent") / "policies"))
 
 
-def policy_artifacts(text: str) -> tuple[str, list[tuple[int | None, Path]]]:
-    """Resolve ``agent:TEXT``: a shipped name (default ``rp``), a policy file, or a folder of per-seed
-    policy files. Returns ``(label name, [(seed or None, path), ...])``; per-seed files carry their seed.
+RECIPE_FIELDS: tuple[str, ...] = ("residual", "env", "observation", "ppo", "num_envs")
+"""The parts of :class:`AgentConfig` that every policy of one seed group must share: a group is one recipe
+trained from several seeds, not a mix of recipes."""
 
-    Raises :class:`PolicyFileError` (one line) when nothing usable is found.
+
+def policy_artifacts(text: str) -> tuple[str, list[tuple[int | None, Path]]]:
+    """Resolve ``agent:TEXT``: a shipped name (default ``rp``), a policy file, or a seed group, optionally
+    narrowed to one of its seeds with ``@SEED`` (``rp@215``, ``runs/agent-rp@345``).
+
+    A seed group is a folder of per-seed policy files (``seed150.npz``, ...) or of run folders each holding a
+    ``policy.npz`` (what ``krl agent train`` writes); every file records its training seed and all share
+    one recipe (:data:`RECIPE_FIELDS`). Returns ``(label name, [(seed or None, path), ...])``: per-seed files
+    carry their seed; one file, or one seed picked with ``@``, carries None (its name ends ``-seedS``).
+
+    Raises :class:`PolicyFileError` (one line) when nothing usable is found, or the seed is not in the group.
     """
-    name = text or "rp"
-    if name in SHIPPED_POLICIES:
-        folder, single = shipped_policy_dir() / f"agent-{name}", shipped_policy_dir() / f"agent-{name}.npz"
-        if single.is_file():
-            path = single
-        elif folder.is_dir():
-            path = folder
-        else:
-            raise PolicyFileError(f"krl ships no agent-{name} policy yet (train one with `krl agent train`)")
-    else:
-        path = Path(name)
-        # a run folder's policy.npz takes the folder's name, as a kernel.npz does
-        named = path.parent if path.name == "policy.npz" else path
-        name = (named.stem if named.is_file() else named.name).removeprefix("agent-")
+    base, at, seed_text = (text or "rp").rpartition("@")
+    if not at:
+        base, seed_text = seed_text, ""
+    name, path = _policy_location(base)
     if path.is_file():
         load_policy(path)
+        if seed_text:
+            raise PolicyFileError(
+                f"{text!r}: {path} is one policy file, not a seed group to pick a seed from"
+            )
         return name, [(None, path)]
+    group = _seed_group(path)
+    if not seed_text:
+        return name, sorted(group.items())
+    if not seed_text.isdigit() or int(seed_text) not in group:
+        raise PolicyFileError(
+            f"{text!r}: agent-{name} has no policy for seed {seed_text} (seeds: {', '.join(map(str, group))})"
+        )
+    return f"{name}-seed{int(seed_text)}", [(None, group[int(seed_text)])]
+
+
+def one_policy(text: str) -> tuple[str, Path]:
+    """The one policy file a single robot runs, for ``TEXT`` as :func:`policy_artifacts` reads it: a seed
+    group gives its first seed's file (``rp`` is ``rp@150``). Returns ``(name, path)``."""
+    name, files = policy_artifacts(text)
+    seed, path = files[0]
+    return (name if seed is None else f"{name}-seed{seed}"), path
+
+
+def _policy_location(text: str) -> tuple[str, Path]:
+    """``(label name, path)`` of a shipped name (its single file or its folder) or a user's path."""
+    if text in SHIPPED_POLICIES:
+        folder, single = shipped_policy_dir() / f"agent-{text}", shipped_policy_dir() / f"agent-{text}.npz"
+        if folder.is_dir():
+            return text, folder
+        if single.is_file():
+            return text, single
+        raise PolicyFileError(f"krl ships no agent-{text} policy yet (train one with `krl agent train`)")
+    path = Path(text)
+    # a run folder's policy.npz takes the folder's name, as a kernel.npz does
+    named = path.parent if path.name == "policy.npz" else path
+    return (named.stem if named.is_file() else named.name).removeprefix("agent-"), path
+
+
+def _seed_group(path: Path) -> dict[int, Path]:
+    """``{seed: policy file}`` of a seed-group folder, in seed order (see :func:`policy_artifacts`)."""
     if not path.is_dir():
         raise PolicyFileError(f"no policy file or folder {str(path)!r}")
-    found = sorted(path.glob("*.npz"))
+    found = sorted(path.glob("*.npz")) or sorted(path.glob("*/policy.npz"))
     if not found:
-        raise PolicyFileError(f"policy folder {path} holds no .npz policy files")
-    seeded: dict[int, Path] = {}
+        raise PolicyFileError(f"policy folder {path} holds no .npz policy files and no run folders")
+    group: dict[int, Path] = {}
+    recipe: tuple[Path, dict[str, Any]] | None = None
     for candidate in found:
-        seed = load_policy(candidate).metadata.get("training", {}).get("seed")
+        policy = load_policy(candidate)
+        seed = policy.metadata.get("training", {}).get("seed")
         if not isinstance(seed, int):
+            raise PolicyFileError(f"policy {candidate} records no training seed (needed in a seed group)")
+        if seed in group:
+            raise PolicyFileError(f"policy folder {path}: {group[seed]} and {candidate} share seed {seed}")
+        settings = {key: value for key, value in policy.config.to_json().items() if key in RECIPE_FIELDS}
+        if recipe is not None and settings != recipe[1]:
+            differ = sorted(key for key in RECIPE_FIELDS if settings[key] != recipe[1][key])
             raise PolicyFileError(
-                f"policy {candidate} records no training seed (needed in a per-seed folder)"
+                f"policy folder {path} mixes recipes: {recipe[0]} and {candidate} differ in "
+                f"{', '.join(differ)}"
             )
-        if seed in seeded:
-            raise PolicyFileError(
-                f"policy folder {path}: {seeded[seed].name} and {candidate.name} share seed {seed}"
-            )
-        seeded[seed] = candidate
-    return name, sorted(seeded.items())
+        recipe = recipe or (candidate, settings)
+        group[seed] = candidate
+    return dict(sorted(group.items()))

@@ -62,7 +62,7 @@ def run_demo_walk(run: DemoRun) -> dict[str, Any]:
         video=run.video,
         trace=trace,
     )
-    return {"label": run.spec.label, "metrics": metrics, "path": np.array(trace).tolist()}
+    return {"label": run.spec.driven_label, "metrics": metrics, "path": np.array(trace).tolist()}
 
 
 def available_controllers(names: tuple[str, ...] = DEMO_CONTROLLERS) -> tuple[list[Any], list[str]]:
@@ -110,7 +110,7 @@ def make_demo(
     for note in notes if say is not None else ():
         say(note)
     out.mkdir(parents=True, exist_ok=True)
-    film = str(out / f"{specs[0].label}-{loaded.name}.mp4") if video else None
+    film = str(out / f"{specs[0].driven_label}-{loaded.name}.mp4") if video else None
     runs = [DemoRun(spec, loaded, start, film if index == 0 else None) for index, spec in enumerate(specs)]
     results = run_jobs(run_demo_walk, runs, workers=workers, progress="demo" if progress else None)
     rows = [_row(result) for result in results]

@@ -192,17 +192,14 @@ def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = 
 def _load(policy: str | None, kernel: str | None) -> tuple[Any, Path, Any, Path | None]:
     """The policy (or None) and the kernel to export, with their files: ``(kernel, kernel file, policy,
     policy file)``. Names of shipped models (``base``, ``ext``; ``rp``, ``base``) resolve to their files."""
-    from krl.agent.policy import check_kernel_file, load_policy, policy_artifacts
+    from krl.agent.policy import check_kernel_file, load_policy, one_policy
     from krl.kernel.model import load_kernel
     from krl.kernel.registry import resolve_model
 
     kernel_file = None if kernel is None else resolve_model(kernel)
     loaded_policy, policy_path = None, None
     if policy is not None:
-        _, files = policy_artifacts(policy)
-        if len(files) > 1:
-            raise ValueError(f"{policy} holds one policy per seed: export one file")
-        policy_path = files[0][1]
+        _, policy_path = one_policy(policy)
         loaded_policy = load_policy(policy_path, check_kernel=False)
         kernel_path = check_kernel_file(loaded_policy, kernel_file, policy_path)
     else:

@@ -1,14 +1,14 @@
 """``krl reproduce``: every table and figure of ``docs/results`` and ``docs/figures`` from nothing.
 
-The pipeline is a table, :data:`PIPELINE`, of ``krl`` commands in order (expert data -> kernels ->
-kernel studies and figures -> agent -> evaluation -> report), each with the wall time it took on the
-2-core development machine (``docs/reproduce.md``); :func:`plan` fills in the folders and the mode,
-giving one :class:`Step` per row. A finished step leaves a marker (``RUNS/.reproduce/<step>.json``,
-holding its command), so running ``krl reproduce`` again skips what is done and resumes the step that was
-interrupted (every long command it runs resumes by itself). With ``--quick`` every step is cut down (tens
-of waypoints, a few epochs, a short agent training, one push per magnitude) into ``RUNS/quick``, whose
-documents go to ``RUNS/quick/docs``: the same pipeline in well under an hour here, never touching
-``docs/``.
+The pipeline is a table of ``krl`` commands in order (:func:`pipeline`: expert data -> kernels -> kernel
+studies and figures -> both agents from each training seed -> evaluation -> report), each with the wall time
+it took on the 2-core development machine (``docs/reproduce.md``); :func:`plan` fills in the folders, the
+mode and the seeds, giving one :class:`Step` per row. A finished step leaves a marker
+(``RUNS/.reproduce/<step>.json``, holding its command), so running ``krl reproduce`` again skips what is
+done and resumes the step that was interrupted (every long command it runs resumes by itself). With
+``--quick`` every step is cut down (tens of waypoints, a few epochs, a short agent training, one push per
+magnitude) into ``RUNS/quick``, whose documents go to ``RUNS/quick/docs``: the same pipeline in well under
+an hour here, never touching ``docs/``.
 """
 
 from __future__ import annotations
@@ -105,20 +105,24 @@ COURSES: tuple[str, ...] = ("tabletop", "seesaw", "stairs", "sinusoid", "flat")
 """The courses pictured in ``docs/figures/courses``."""
 STANCES: tuple[str, ...] = ("0.3", "0.25", "0.2")
 """τ_stance of Table 4.3's datasets [s]."""
-SEED = str(THESIS_SEEDS[0])
-"""The seed of the agents the pipeline trains (the shipped ones') and of the quick studies' one run."""
+QUICK_SEEDS: tuple[int, ...] = THESIS_SEEDS[:1]
+"""The seeds of ``--quick`` (the full pipeline's are the thesis's four): one kernel-study run, one agent of
+each kind."""
+AGENTS: tuple[str, ...] = ("rp", "base")
+"""The agents trained, one per seed each: agent-rp (Table 4.8's reward with the roll and pitch term) and
+agent-base (without it)."""
 
 
-def _places(runs: str, docs: str) -> dict[str, str]:
-    """What the templates' placeholders stand for, for the run folder ``runs`` and documents ``docs``."""
+def _places(runs: str, docs: str, seeds: Sequence[int]) -> dict[str, str]:
+    """What the templates' placeholders stand for, for the run folder ``runs``, documents ``docs`` and the
+    training ``seeds`` (``{seed}`` is the first: the one kernel-ind the figures show)."""
     return {
         "runs": runs,
         "docs": docs,
         "data": f"{runs}/data",
-        "seed": SEED,
+        "seeds": ",".join(map(str, seeds)),
+        "seed": str(seeds[0]),
         "kernel": f"{runs}/kernel-base/kernel.npz",
-        "agent": f"{runs}/agent-rp-seed{SEED}",
-        "base_agent": f"{runs}/agent-base-seed{SEED}",
     }
 
 
@@ -154,8 +158,7 @@ def _course_picture(course: str) -> Row:
 
 
 _STUDY: tuple[Fragment, ...] = (
-    "--runs {runs}/studies --threads 1",
-    ByMode("--seeds " + ",".join(str(seed) for seed in THESIS_SEEDS), "--seeds {seed}"),
+    "--runs {runs}/studies --threads 1 --seeds {seeds}",
     ByMode(f"--epochs {COMPARISON_EPOCHS}", "--epochs 2"),
     ByMode("--walk-targets 5", "--walk-targets 1"),
     "--quiet",
@@ -172,9 +175,13 @@ _QUICK_AGENT: dict[str, Any] = {
 """A short agent training."""
 _RESIDUAL = {"kernel": "{kernel}"}
 """The agents' residual part: the kernel the pipeline trained."""
+_AGENT_RECIPE: dict[str, Any] = {"workers": 2, "num_envs": 16, "checkpoint_every": 500_000}
+"""How the shipped seed groups were trained (docs/agent.md): 2 workers of 16 environments, whatever the
+machine's cores (more workers would change the rollout the recipe was measured with)."""
 
-# The pipeline as data, one row per step in order; a pure table, longer than a function may be.
-PIPELINE: tuple[Row, ...] = (
+# The pipeline's steps before the agents, one row per step in order; a pure table, longer than a function
+# may be.
+DATA_AND_KERNELS: tuple[Row, ...] = (
     Row(
         "collect-base",
         "expert data, stance 0.2 s",
@@ -275,58 +282,83 @@ PIPELINE: tuple[Row, ...] = (
         ),
     ),
     *(_course_picture(course) for course in COURSES),
-    Row(
-        "agent-rp",
-        f"agent-rp (seed {SEED})",
-        ByMode(120, 4),
-        ("agent train --out {agent} --seed {seed} --config {config} --quiet",),
-        config=ByMode({"residual": _RESIDUAL}, {"residual": _RESIDUAL, **_QUICK_AGENT}),
-    ),
-    # agent-base (Table 4.8's reward without the roll and pitch term) as shipped: 50 environments per worker
-    Row(
-        "agent-base",
-        f"agent-base (seed {SEED})",
-        ByMode(74, 4),
-        ("agent train --out {base_agent} --seed {seed} --config {config} --quiet",),
-        config=ByMode(
-            {"residual": _RESIDUAL, "env": {"reward": "base"}, "num_envs": 50, "checkpoint_every": 1_000_000},
-            {"residual": _RESIDUAL, **_QUICK_AGENT, "env": {"reward": "base"}},
-        ),
-    ),
-    Row(
-        "evaluate-courses",
-        "Tables 5.1-5.4 runs",
-        ByMode(14, 6),
-        (
-            "evaluate --controller expert --controller expert:stance=0.3 --controller kernel:{kernel}",
-            "--controller agent:{agent}/policy.npz --controller agent:{base_agent}/policy.npz",
-            "--course thesis --course flat",
-            _EVALUATE,
-        ),
-    ),
-    # 50 attempts per magnitude, as docs/results: the thesis's 10 leave each rate's interval ±0.3 wide
-    Row(
-        "evaluate-pushes",
-        "Table 5.5 runs",
-        ByMode(90, 2),
-        (
-            "evaluate --controller expert --controller kernel:{kernel} --controller agent:{agent}/policy.npz",
-            ByMode("--push-sweep --attempts 50", "--push-sweep --attempts 1"),
-            _EVALUATE,
-        ),
-    ),
-    Row("report", "Tables 5.1-5.5", 0.2, ("report --results {runs}/eval --out {docs}/results",)),
-    Row("agent-curves", "training curves", 0.1, ("agent curves {agent} --out {docs}/figures/agent",)),
 )
-"""Every step, in order (expert data -> kernels -> studies, figures -> agents -> evaluation -> report)."""
+"""Expert data, kernels, kernel studies and figures, course pictures: the steps before the agents."""
 
 
-def plan(runs: Path, docs: Path, quick: bool = False) -> list[Step]:
-    """The steps, in order, for the run folder ``runs`` and the documents folder ``docs``."""
+def _agent_row(agent: str, seed: int) -> Row:
+    """Training of agent-``agent`` from ``seed`` into ``RUNS/agent-<agent>/seed<S>``, with the recipe of
+    the shipped seed groups (:data:`_AGENT_RECIPE`)."""
+    config: dict[str, Any] = {"residual": _RESIDUAL}
+    if agent != "rp":
+        config["env"] = {"reward": agent}
+    return Row(
+        f"agent-{agent}-seed{seed}",
+        f"agent-{agent} (seed {seed})",
+        ByMode(120, 4),
+        (f"agent train --out {{runs}}/agent-{agent}/seed{seed} --seed {seed} --config {{config}} --quiet",),
+        config=ByMode({**config, **_AGENT_RECIPE}, {**config, **_QUICK_AGENT}),
+    )
+
+
+def _scoring_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
+    """Evaluation of the trained kernel and seed groups, the report and the training curves."""
+    groups = " ".join(f"--controller agent:{{runs}}/agent-{agent}" for agent in AGENTS)
+    return (
+        Row(
+            "evaluate-courses",
+            "Tables 5.1-5.4 runs",
+            ByMode(6 + 2 * len(seeds), 6),
+            (
+                "evaluate --controller expert --controller expert:stance=0.3 --controller kernel:{kernel}",
+                groups,
+                "--seeds {seeds} --course thesis --course flat",
+                _EVALUATE,
+            ),
+        ),
+        # 50 attempts per magnitude, as docs/results: the thesis's 10 leave each rate's interval ±0.3 wide
+        Row(
+            "evaluate-pushes",
+            "Table 5.5 runs",
+            ByMode(30 * (2 + len(seeds)), 2),
+            (
+                "evaluate --controller expert --controller kernel:{kernel}",
+                "--controller agent:{runs}/agent-rp --seeds {seeds}",
+                ByMode("--push-sweep --attempts 50", "--push-sweep --attempts 1"),
+                _EVALUATE,
+            ),
+        ),
+        Row("report", "Tables 5.1-5.5", 0.2, ("report --results {runs}/eval --out {docs}/results",)),
+        Row(
+            "agent-curves",
+            "training curves, Fig. 4.23",
+            0.1,
+            (
+                "agent curves {runs}/agent-rp/seed{seed}",
+                " ".join(f"--group agent-{agent}={{runs}}/agent-{agent}" for agent in AGENTS),
+                "--out {docs}/figures/agent",
+            ),
+        ),
+    )
+
+
+def pipeline(seeds: Sequence[int]) -> tuple[Row, ...]:
+    """Every step, in order (expert data -> kernels -> studies, figures -> agents of each seed ->
+    evaluation -> report) for the training ``seeds``."""
+    agents = tuple(_agent_row(agent, seed) for agent in AGENTS for seed in seeds)
+    return (*DATA_AND_KERNELS, *agents, *_scoring_rows(seeds))
+
+
+def plan(runs: Path, docs: Path, quick: bool = False, seeds: Sequence[int] | None = None) -> list[Step]:
+    """The steps, in order, for the run folder ``runs``, the documents folder ``docs`` and the training
+    ``seeds`` (default: the thesis's four, :data:`QUICK_SEEDS` with ``quick``)."""
     if quick:
         runs, docs = runs / "quick", runs / "quick" / "docs"
-    places = _places(str(runs), str(docs))
-    return [row.step(places, quick) for row in PIPELINE]
+    seeds = tuple(seeds or (QUICK_SEEDS if quick else THESIS_SEEDS))
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"seeds must differ, got {list(seeds)}")
+    places = _places(str(runs), str(docs), seeds)
+    return [row.step(places, quick) for row in pipeline(seeds)]
 
 
 def _marker(runs: Path, quick: bool, step: Step) -> Path:
@@ -356,11 +388,18 @@ def describe(steps: Sequence[Step], runs: Path, quick: bool) -> list[str]:
 
 
 def reproduce(
-    runs: Path, docs: Path, quick: bool, run: Callable[[list[str]], int], log=print, dry_run: bool = False
+    runs: Path,
+    docs: Path,
+    quick: bool,
+    run: Callable[[list[str]], int],
+    log=print,
+    dry_run: bool = False,
+    seeds: Sequence[int] | None = None,
 ) -> int:
-    """Print the plan, then run each step that is not done with ``run(argv) -> exit status``; stops at
-    the first failing step (its exit status), returns 0 when everything is done."""
-    steps = plan(runs, docs, quick)
+    """Print the plan (for ``seeds``, as :func:`plan`), then run each step that is not done with
+    ``run(argv) -> exit status``; stops at the first failing step (its exit status), returns 0 when
+    everything is done."""
+    steps = plan(runs, docs, quick, seeds)
     for line in describe(steps, runs, quick):
         log(line)
     if dry_run:

@@ -49,20 +49,9 @@ def _note(message: str) -> None:
 
 
 def _policy(args: argparse.Namespace):
-    from krl.agent.policy import load_policy, policy_artifacts
+    from krl.agent.policy import load_policy, one_policy
 
-    name, files = policy_artifacts(args.policy)
-    if len(files) > 1:
-        seeds = dict(files)
-        if args.policy_seed is None:
-            raise CliError(
-                f"agent {name} has one policy per seed ({', '.join(map(str, seeds))}): give --policy-seed"
-            )
-        if args.policy_seed not in seeds:
-            raise CliError(f"agent {name} has no policy for seed {args.policy_seed}")
-        path = seeds[args.policy_seed]
-    else:
-        path = files[0][1]
+    _, path = one_policy(args.policy)
     return path, load_policy(path)
 
 
@@ -126,7 +115,7 @@ def run_curves(args: argparse.Namespace) -> int:
         label, _, runs = text.partition("=")
         if not label or not runs:
             raise CliError(f"--group {text!r}: expected LABEL=RUN,RUN,...")
-        groups[label] = [Path(run) for run in runs.split(",")]
+        groups[label] = _group_runs([Path(run) for run in runs.split(",")])
     paths = []
     if args.run:
         paths += plot_training_curves([Path(run) for run in args.run], Path(args.out))
@@ -136,18 +125,26 @@ def run_curves(args: argparse.Namespace) -> int:
     return 0
 
 
+def _group_runs(paths: list[Path]) -> list[Path]:
+    """The run folders of a ``--group``: the folders given, or for one folder holding no training log, the
+    run folders inside it (a seed group such as ``runs/agent-rp/seed150``, ``.../seed215``)."""
+    if len(paths) == 1 and paths[0].is_dir() and not (paths[0] / "progress.csv").exists():
+        inside = sorted(run.parent for run in paths[0].glob("*/progress.csv"))
+        if inside:
+            return inside
+    return paths
+
+
 def run_stairs(args: argparse.Namespace) -> int:
-    from krl.agent.policy import policy_artifacts
+    from krl.agent.policy import one_policy
     from krl.analysis.agent.stairs import stairs_diagnosis, stairs_figure
     from krl.eval.courses import load_course
 
     policies: dict[str, Path] = {}
     for text in args.policy:
         label, _, spec = text.rpartition("=")
-        name, files = policy_artifacts(spec)
-        if len(files) > 1:
-            raise CliError(f"--policy {text}: {name} holds one policy per seed; give one of its files")
-        policies[label or name] = files[0][1]
+        name, path = one_policy(spec)
+        policies[label or name] = path
     course = load_course(args.course)
     if course.terrain != "stairs":
         raise CliError(f"--course {args.course} is on {course.terrain!r}, not on stairs")
@@ -192,9 +189,9 @@ def register(subparsers) -> None:
         parser.add_argument(
             "--policy",
             default="rp",
-            help="shipped agent (rp, base), a policy file or a folder of per-seed files",
+            help="shipped agent (rp, base), a policy file or a seed group; NAME@SEED picks a group's seed "
+            "(default: its first, rp is rp@150)",
         )
-        parser.add_argument("--policy-seed", type=int, help="with a per-seed folder: which seed's policy")
 
     p = group.add_parser("run", help="walk the agent to waypoints or at a fixed command")
     add_common_run_arguments(p)
@@ -213,8 +210,8 @@ def register(subparsers) -> None:
     p.add_argument(
         "--group",
         action="append",
-        help="LABEL=RUN,RUN,...: the runs of one agent's seeds, drawn as their mean and spread "
-        "(seed-groups.png, Fig. 4.23); repeat for each agent",
+        help="LABEL=RUN,RUN,... or LABEL=FOLDER of run folders: the runs of one agent's seeds, drawn as "
+        "their mean and spread (seed-groups.png, Fig. 4.23); repeat for each agent",
     )
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--json", action="store_true", help="print JSON")

@@ -181,11 +181,15 @@ def parse_vector(text: str, size: int, what: str) -> list[float]:
 
 
 def parse_ints(text: str, option: str) -> list[int]:
-    """``"150,215"`` -> ``[150, 215]`` (empty parts skipped); a ValueError naming ``option`` otherwise."""
+    """``"150,215"`` -> ``[150, 215]`` (empty parts skipped); a ValueError naming ``option`` otherwise (no
+    integer at all included)."""
     try:
-        return [int(part) for part in text.split(",") if part.strip()]
+        numbers = [int(part) for part in text.split(",") if part.strip()]
     except ValueError:
-        raise ValueError(f"{option} expects comma-separated integers, got {text!r}") from None
+        numbers = []
+    if not numbers:
+        raise ValueError(f"{option} expects comma-separated integers, got {text!r}")
+    return numbers
 
 
 # --- option groups -----------------------------------------------------------------------------------

@@ -31,7 +31,6 @@ def _magnitudes(text: str) -> tuple[float, ...]:
 
 def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
     from krl.eval.episodes import PushSweep
-    from krl.util.thesis import THESIS_SEEDS
 
     magnitudes = default_of(PushSweep, "magnitudes")
 
@@ -69,8 +68,8 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--seeds",
-        default=",".join(map(str, THESIS_SEEDS)),
-        help="run seeds, for controllers that depend on a seed (the agent)",
+        help="training seeds to score, for seed groups (the agent: one policy per seed; default: all "
+        "the group holds)",
     )
     parser.add_argument(
         "--workers", type=int, default=os.cpu_count() or 1, help="processes (default: all cores)"
@@ -112,7 +111,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
     specs = distinct_controllers([parse_controller(text) for text in args.controller])
     names = args.course if args.course or args.push_sweep else ["thesis"]
     courses = _courses(names)
-    seeds = parse_ints(args.seeds, "--seeds")
+    seeds = None if args.seeds is None else parse_ints(args.seeds, "--seeds")
     sweep = push_sweep_from_args(args) if args.push_sweep else None
     out = Path(args.out)
     video = Path(args.video) if args.video else None
@@ -120,7 +119,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
     for spec in specs:
         tasks += evaluate.course_tasks(spec, courses, seeds, video, args.video_all)
         if sweep is not None:
-            tasks += evaluate.push_tasks(spec, sweep, video)
+            tasks += evaluate.push_tasks(spec, sweep, seeds, video)
     command = "krl " + shlex.join(args.argv)
 
     def remember_command() -> None:  # once every option and stored result has been checked
@@ -151,12 +150,15 @@ def run_evaluate(args: argparse.Namespace) -> int:
         mine = [r for t, r in zip(tasks, records, strict=True) if t.controller == spec]
         entry: dict[str, Any] = {}
         for course in courses:
-            entry[course.name] = evaluate.summarise_course(
-                [r for r in mine if r.get("course") == course.name]
-            )
+            runs = [r for r in mine if r.get("course") == course.name]
+            entry[course.name] = evaluate.summarise_course(runs)
+            if spec.seeded:
+                entry[course.name]["by_seed"] = evaluate.summarise_course_by_seed(runs)
         if sweep is not None:
             pushes = [r for r in mine if "magnitude" in r]
             entry["push"] = evaluate.summarise_push(pushes)
+            if spec.seeded:
+                entry["push_by_seed"] = evaluate.summarise_push_by_seed(pushes)
             entry["push_directions"] = evaluate.summarise_push_directions(pushes)
         entry["wall_seconds"] = round(sum(r["metrics"]["wall_seconds"] for r in mine), 1)
         summary["controllers"][spec.label] = entry

@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from krl.cli.common import parse_ints
+
 
 def run_step(argv: list[str]) -> int:
     """Run one step as its own ``krl`` process (a fresh interpreter per step, its own progress bars)."""
@@ -16,7 +18,10 @@ def run_step(argv: list[str]) -> int:
 def run_reproduce(args: argparse.Namespace) -> int:
     from krl.apps.reproduce import reproduce
 
-    return reproduce(Path(args.runs), Path(args.docs), args.quick, run_step, dry_run=args.dry_run)
+    seeds = None if args.seeds is None else parse_ints(args.seeds, "--seeds")
+    return reproduce(
+        Path(args.runs), Path(args.docs), args.quick, run_step, dry_run=args.dry_run, seeds=seeds
+    )
 
 
 def register(subparsers) -> None:
@@ -28,5 +33,10 @@ def register(subparsers) -> None:
         "--docs", default="docs", help="where the tables and figures go (with --quick: RUNS/quick/docs)"
     )
     p.add_argument("--quick", action="store_true", help="a cut-down pipeline (well under an hour here)")
+    p.add_argument(
+        "--seeds",
+        help="training seeds of the agents and the kernel studies (default: the thesis's 150,215,345,556; "
+        "with --quick: 150)",
+    )
     p.add_argument("--dry-run", action="store_true", help="print the plan and what is done, run nothing")
     p.set_defaults(func=run_reproduce)

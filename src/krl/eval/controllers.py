@@ -7,9 +7,10 @@
 | ``kernel`` | the shipped kernel-base |
 | ``kernel:ext`` | a shipped kernel by name |
 | ``kernel:PATH`` | a kernel file (``krl kernel train`` output) |
-| ``agent`` | the shipped residual agent agent-rp (kernel + PPO residuals) |
+| ``agent`` | the shipped residual agent agent-rp (kernel + PPO residuals), one policy per training seed |
 | ``agent:base`` | a shipped agent by name |
-| ``agent:PATH`` | a policy file (``krl agent train`` output), or a directory of per-seed policy files |
+| ``agent:rp@215`` | one seed of a seed group (label ``agent-rp-seed215``) |
+| ``agent:PATH`` | a policy file (``krl agent train`` output) or a seed group (per-seed files or runs) |
 
 Each kind is one entry of :data:`CONTROLLER_KINDS` (parse, build, report title), so a new kind joins by
 adding one. A :class:`ControllerSpec` is plain data, so worker processes rebuild the controller from it;
@@ -106,14 +107,22 @@ class ControllerSpec:
         return hashlib.sha256(joined.encode()).hexdigest()
 
     def artifact(self, seed: int | None = None) -> Artifact:
-        """The file for a run of ``seed`` (the only one, for controllers that are not seeded)."""
-        if not self.seeded:
+        """The file for a run of ``seed``: the only one of a controller that is not seeded; a seeded
+        controller's first seed's where ``seed`` is None (one robot driven outside an evaluation: the viewer,
+        the demo)."""
+        if not self.seeded or seed is None:
             return self.artifacts[0]
         for candidate in self.artifacts:
             if candidate.seed == seed:
                 return candidate
         known = ", ".join(map(str, self.seeds))
         raise ControllerSpecError(f"controller {self.label}: no policy for seed {seed} (has seeds {known})")
+
+    @property
+    def driven_label(self) -> str:
+        """The label of what :meth:`build` drives without a seed: a seeded controller's first seed's
+        (``agent-rp-seed150``), any other's own label."""
+        return f"{self.label}-seed{self.seeds[0]}" if self.seeded else self.label
 
     def build(self, seed: int | None = None):
         """A fresh controller for one run (``seed`` selects the per-seed artifact of seeded controllers)."""
@@ -233,7 +242,7 @@ def _parse_agent(text: str, rest: str) -> ControllerSpec:
         raise ControllerSpecError(f"controller {text!r}: {error}") from None
     artifacts = tuple(Artifact.of(path, seed) for seed, path in files)
     spec = ControllerSpec("agent", f"agent-{name}", (), artifacts)
-    if (rest.strip() or "rp") in SHIPPED_POLICIES:
+    if (rest.strip() or "rp").partition("@")[0] in SHIPPED_POLICIES:
         return spec
     return replace(spec, label=_user_label("agent", name, SHIPPED_POLICIES, spec.content_hash or ""))
 

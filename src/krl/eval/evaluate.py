@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from krl.eval.controllers import ControllerSpec, ControllerSpecError
+from krl.eval.controllers import ControllerSpec
 from krl.eval.courses import Course
 from krl.eval.episodes import PushSweep, score_push_attempt, score_walk
 from krl.util.output import write_atomic
@@ -59,6 +59,8 @@ class Task:
         identity: dict[str, Any] = {"format": RESULT_FORMAT, "controller": self.controller.describe()}
         if self.sweep is not None:
             identity.update(sweep=self.sweep.to_dict(), magnitude=self.magnitude, attempt=self.attempt)
+            if self.seed is not None:  # records of one policy, made before seeded sweeps, have no seed
+                identity["seed"] = self.seed
         else:
             assert self.course is not None
             identity.update(
@@ -70,27 +72,34 @@ class Task:
         return identity
 
 
+def run_seeds(spec: ControllerSpec, seeds: Sequence[int] | None) -> list[int | None]:
+    """The seeds ``spec`` runs with: ``[None]`` for a controller that is not seeded; for a seeded one
+    ``seeds`` (None: every seed it holds).
+
+    Raises :class:`ControllerSpecError` for a seed a seeded controller holds no policy for (before anything
+    is written).
+    """
+    if not spec.seeded:
+        return [None]
+    for seed in seeds or ():
+        spec.artifact(seed)
+    return list(spec.seeds if seeds is None else seeds)
+
+
 def course_tasks(
     spec: ControllerSpec,
     courses: Sequence[Course],
-    seeds: Sequence[int],
+    seeds: Sequence[int] | None = None,
     video_dir: Path | None = None,
     video_all: bool = False,
 ) -> list[Task]:
-    """Every (course, start[, seed]) run. Seeds count only for seed-dependent controllers; videos are
-    made of each course's first run, or of every run with ``video_all``.
-
-    Raises :class:`ControllerSpecError` for a seed a per-seed controller holds no policy for (here, so the
-    call is refused before anything is written).
-    """
-    run_seeds: Sequence[int | None] = seeds if spec.seeded else [None]
-    for seed in seeds if spec.seeded and courses else ():
-        spec.artifact(seed)
+    """Every (course, start[, seed]) run, seeds as :func:`run_seeds`; videos are made of each course's
+    first run, or of every run with ``video_all``."""
     tasks = []
     for course in courses:
         first = True
         for start in range(len(course.starts)):
-            for seed in run_seeds:
+            for seed in run_seeds(spec, seeds):
                 name = f"start{start}" + ("" if seed is None else f"-seed{seed}")
                 video = None
                 if video_dir is not None and (first or video_all):
@@ -100,29 +109,30 @@ def course_tasks(
     return tasks
 
 
-def push_tasks(spec: ControllerSpec, sweep: PushSweep, video_dir: Path | None = None) -> list[Task]:
-    """Every (magnitude, attempt) of the sweep; a video of attempt 0 at each magnitude if asked.
-
-    Raises :class:`ControllerSpecError` for a per-seed controller: the sweep's runs have no seed to choose
-    one of its policies by.
-    """
-    if spec.seeded:
-        raise ControllerSpecError(
-            f"controller {spec.label} holds one policy per seed ({', '.join(map(str, spec.seeds))}), but the "
-            "push sweep scores one policy: give one of its files"
-        )
+def push_tasks(
+    spec: ControllerSpec, sweep: PushSweep, seeds: Sequence[int] | None = None, video_dir: Path | None = None
+) -> list[Task]:
+    """Every (magnitude, attempt[, seed]) of the sweep, seeds as :func:`run_seeds`: each seed's policy
+    meets the same pushes. A video of attempt 0 at each magnitude (of the first seed) if asked."""
     tasks = []
-    for magnitude in sweep.magnitudes:
-        for attempt in range(sweep.attempts):
-            name = f"m{magnitude:g}-a{attempt}"
-            video = None
-            if video_dir is not None and attempt == 0:
-                video = str(video_dir / spec.label / f"push-{name}.mp4")
-            tasks.append(
-                Task(
-                    f"{PUSH_DIR}/{name}", spec, sweep=sweep, magnitude=magnitude, attempt=attempt, video=video
+    for index, seed in enumerate(run_seeds(spec, seeds)):
+        for magnitude in sweep.magnitudes:
+            for attempt in range(sweep.attempts):
+                name = f"m{magnitude:g}-a{attempt}" + ("" if seed is None else f"-seed{seed}")
+                video = None
+                if video_dir is not None and attempt == 0 and index == 0:
+                    video = str(video_dir / spec.label / f"push-{name}.mp4")
+                tasks.append(
+                    Task(
+                        f"{PUSH_DIR}/{name}",
+                        spec,
+                        seed=seed,
+                        sweep=sweep,
+                        magnitude=magnitude,
+                        attempt=attempt,
+                        video=video,
+                    )
                 )
-            )
     return tasks
 
 
@@ -355,20 +365,49 @@ def summarise_push_directions(records: Sequence[dict[str, Any]]) -> list[dict[st
 
 def summarise_push(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     """One row per magnitude: success rate with its 95 % interval (:func:`success_interval`), fall rate,
-    mean impulse [N·s] and Δv [m/s] of the pushes."""
+    mean impulse [N·s] and Δv [m/s] of the pushes. Records of several training seeds are pooled (with equal
+    attempts per seed, the rate is the mean of the seeds' rates); their rows add ``seeds`` and
+    ``success_rate_seed_std``, the sample std of the seeds' rates."""
     by_magnitude: dict[float, list[dict[str, Any]]] = {}
     for record in records:
         by_magnitude.setdefault(float(record["magnitude"]), []).append(record)
     rows = []
     for magnitude in sorted(by_magnitude):
         group = by_magnitude[magnitude]
-        rows.append(
-            {
-                "magnitude": magnitude,
-                **_success(group),
-                "fall_rate": sum(_counts_as_fall(r["metrics"]) for r in group) / len(group),
-                "impulse": statistics.fmean(r["metrics"]["push"]["impulse"] for r in group),
-                "delta_v": statistics.fmean(r["metrics"]["push"]["delta_v"] for r in group),
-            }
-        )
+        row = {
+            "magnitude": magnitude,
+            **_success(group),
+            "fall_rate": sum(_counts_as_fall(r["metrics"]) for r in group) / len(group),
+            "impulse": statistics.fmean(r["metrics"]["push"]["impulse"] for r in group),
+            "delta_v": statistics.fmean(r["metrics"]["push"]["delta_v"] for r in group),
+        }
+        seeds = by_seed(group)
+        if len(seeds) > 1:
+            rates = [_success(runs)["success_rate"] for runs in seeds.values()]
+            row.update(seeds=len(seeds), success_rate_seed_std=_mean_std(rates)[1])
+        rows.append(row)
+    return rows
+
+
+def by_seed(records: Sequence[dict[str, Any]]) -> dict[int, list[dict[str, Any]]]:
+    """The records of a seed group's runs by training seed, in seed order (empty for runs of one policy)."""
+    groups: dict[int, list[dict[str, Any]]] = {}
+    for record in records:
+        if record.get("seed") is not None:
+            groups.setdefault(record["seed"], []).append(record)
+    return dict(sorted(groups.items()))
+
+
+def summarise_push_by_seed(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """:func:`summarise_push` of each training seed's attempts, each row with its ``seed``."""
+    return [{"seed": seed, **row} for seed, runs in by_seed(records).items() for row in summarise_push(runs)]
+
+
+def summarise_course_by_seed(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per training seed of a course's runs: runs, waypoints reached (mean), success and fall rate."""
+    rows = []
+    for seed, runs in by_seed(records).items():
+        summary = summarise_course(runs)
+        keep = ("runs", "targets", "targets_reached_mean", "success_rate", "fall_rate")
+        rows.append({"seed": seed, **{key: summary[key] for key in keep}})
     return rows

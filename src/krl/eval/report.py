@@ -20,7 +20,9 @@ from krl.eval.evaluate import (
     load_record,
     success_interval,
     summarise_course,
+    summarise_course_by_seed,
     summarise_push,
+    summarise_push_by_seed,
     summarise_push_directions,
 )
 from krl.util.output import csv_bytes, figure_bytes, write_atomic
@@ -134,11 +136,14 @@ def course_rows(found: dict[str, dict[str, list[dict[str, Any]]]], course: str) 
 
 
 def push_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
-    """One row per (controller, magnitude) of ours, then the thesis's Table 5.5."""
+    """One row per (controller, magnitude) of ours (a seed group's pooled over its seeds, then one row per
+    (seed, magnitude) with its ``seed``), then the thesis's Table 5.5."""
     rows = []
     for label, groups in found.items():
         if PUSH_DIR in groups:
             for row in summarise_push(groups[PUSH_DIR]):
+                rows.append({"source": "krl", "controller": label, **row})
+            for row in summarise_push_by_seed(groups[PUSH_DIR]):
                 rows.append({"source": "krl", "controller": label, **row})
     for name, rates in THESIS_PUSH.items():
         for magnitude, rate in zip(THESIS_PUSH_MAGNITUDES, rates, strict=True):
@@ -220,12 +225,43 @@ def _course_markdown(course: str, rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def seed_rows(found: dict[str, dict[str, list[dict[str, Any]]]], course: str) -> list[dict[str, Any]]:
+    """One row per (seed group, training seed) with results on ``course``: the spread behind a group's row."""
+    return [
+        {"controller": label, **row}
+        for label, groups in found.items()
+        for row in summarise_course_by_seed(groups.get(course, []))
+    ]
+
+
+def _seed_markdown(rows: list[dict[str, Any]]) -> str:
+    """Each seed group's runs by training seed: successes of runs, falls, mean waypoints reached."""
+    seeds = sorted({row["seed"] for row in rows})
+    lines = [
+        "By training seed (successes of runs, falls, mean waypoints reached):",
+        "",
+        "| controller | " + " | ".join(f"seed {seed}" for seed in seeds) + " |",
+        "| --- | " + " | ".join("---" for _ in seeds) + " |",
+    ]
+    for controller in dict.fromkeys(row["controller"] for row in rows):
+        mine = {row["seed"]: row for row in rows if row["controller"] == controller}
+        cells = [
+            f"{round(mine[s]['success_rate'] * mine[s]['runs'])}/{mine[s]['runs']}, "
+            f"{round(mine[s]['fall_rate'] * mine[s]['runs'])} fell, {mine[s]['targets_reached_mean']:.2f}"
+            if s in mine
+            else "–"
+            for s in seeds
+        ]
+        lines.append(f"| {controller} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def _push_markdown(rows: list[dict[str, Any]]) -> str:
     magnitudes = sorted({row["magnitude"] for row in rows})
-    controllers: list[tuple[str, str]] = []
+    controllers: list[tuple[str, str, int | None]] = []
     for row in rows:
-        if (row["source"], row["controller"]) not in controllers:
-            controllers.append((row["source"], row["controller"]))
+        if (row["source"], row["controller"], row.get("seed")) not in controllers:
+            controllers.append((row["source"], row["controller"], row.get("seed")))
     header = "| source | controller | " + " | ".join(f"{m:g} N" for m in magnitudes) + " |"
     lines = [
         "### Table 5.5: success rate against push magnitude",
@@ -233,12 +269,21 @@ def _push_markdown(rows: list[dict[str, Any]]) -> str:
         header,
         "| --- | --- | " + " | ".join("---" for _ in magnitudes) + " |",
     ]
-    for source, controller in controllers:
-        mine = {r["magnitude"]: r for r in rows if (r["source"], r["controller"]) == (source, controller)}
+    for source, controller, seed in controllers:
+        mine = {
+            r["magnitude"]: r
+            for r in rows
+            if (r["source"], r["controller"], r.get("seed")) == (source, controller, seed)
+        }
         attempts = sorted({r["attempts"] for r in mine.values()})
         # as many decimals as the attempts resolve: 10 attempts move a rate in steps of 0.1
         digits = 1 if all(10 % n == 0 for n in attempts) else 2
         cells = " | ".join(f"{mine[m]['success_rate']:.{digits}f}" if m in mine else "–" for m in magnitudes)
+        seeds = max((r.get("seeds", 1) for r in mine.values()), default=1)
+        if seed is not None:
+            controller = f"{controller} seed {seed}"
+        elif seeds > 1:
+            controller = f"{controller} (pooled over {seeds} seeds)"
         if attempts != [THESIS_PUSH_ATTEMPTS]:
             controller = f"{controller} ({'/'.join(map(str, attempts))} attempts)"
         lines.append(f"| {source} | {controller} | {cells} |")
@@ -304,7 +349,11 @@ def _plot_push(path: Path, rows: list[dict[str, Any]]) -> None:
     for source, style in (("krl", "-o"), ("thesis", "--x")):
         for controller in dict.fromkeys(r["controller"] for r in rows if r["source"] == source):
             mine = sorted(
-                (r for r in rows if r["source"] == source and r["controller"] == controller),
+                (
+                    r
+                    for r in rows
+                    if r["source"] == source and r["controller"] == controller and r.get("seed") is None
+                ),
                 key=lambda r: r["magnitude"],
             )
             magnitudes = [r["magnitude"] for r in mine]
@@ -361,6 +410,12 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
         path = out / f"course-{course}.csv"
         write_atomic(path, _csv(rows))
         written.append(str(path))
+        by_seed = seed_rows(found, course)
+        if by_seed:
+            parts.append(_seed_markdown(by_seed))
+            path = out / f"course-{course}-seeds.csv"
+            write_atomic(path, _csv(by_seed))
+            written.append(str(path))
     if have_push:
         parts.append(_push_markdown(pushes))
         path = out / "push.csv"
