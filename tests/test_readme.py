@@ -7,7 +7,8 @@ argparse keeps the last value of a repeated option, so ``krl collect --out data/
 line cannot go untested. A command runs in its own copy of a workspace (:func:`workspace`) that holds the
 inputs the README's commands name, made small by krl's own commands: ``data/base`` (an expert dataset),
 ``runs/kernel-base`` and ``runs/studies/variants/ind-seed150`` (one-epoch kernels), ``runs/agent-rp`` (a
-tiny agent), ``runs/eval`` (an evaluation for ``krl report``) and ``mine.toml`` (a one-waypoint course).
+tiny agent), ``runs/eval`` (an evaluation for ``krl report``), ``mine.toml`` (a one-waypoint course) and
+``study-tiny.json`` (tiny trials for ``krl agent study``).
 """
 
 from __future__ import annotations
@@ -76,6 +77,11 @@ SMOKE: dict[str, tuple[str, str | None]] = {
     "krl agent train --out runs/agent-rp --seed 150": ("--steps 768 --quiet", None),  # resumes the tiny one
     "krl agent curves runs/agent-rp --out figures/agent": ("", None),
     "krl agent info --policy runs/agent-rp/policy.npz": ("", None),
+    "krl agent study ppo-search --trials 20 --budget 1000000": (
+        "--trials 1 --top 1 --seeds 7 --budget 256 --confirm-budget 256 --config study-tiny.json --workers 1 "
+        "--jobs 1 --quiet",
+        None,
+    ),
     "krl agent run --targets 5 --json": ("--targets 1 --target-time-limit 1", None),
     "krl agent run --policy runs/agent-rp/policy.npz --terrain heightfield --video agent.mp4": (
         "--targets 1 --target-time-limit 0.3 --video-size 160x120",
@@ -115,6 +121,13 @@ TINY_AGENT = (
     '{"ppo": {"rollout_steps": 256, "batch_size": 128, "n_epochs": 1, "shared": [16], "actor": [16], '
     '"critic": [8]}, "num_envs": 2, "workers": 1, "total_steps": 512, "checkpoint_every": 256}'
 )
+
+TINY_STUDY = (
+    '{"ppo": {"rollout_steps": 128, "batch_size": 64, "n_epochs": 1, "shared": [16], "actor": [16], '
+    '"critic": [8]}, "num_envs": 2, "checkpoint_every": 256, "env": {"episode_time": 0.5}}'
+)
+"""Settings every trial of the README's study shares: a tiny network, and half-second episodes so that some
+end within its 256 steps."""
 
 WORKSPACE_COMMANDS = (
     "collect --out data/base --targets 3 --targets-per-episode 1 --quiet",
@@ -158,6 +171,7 @@ def workspace(tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("readme")
     (folder / "mine.toml").write_text(MINE_TOML)
     (folder / "agent-tiny.json").write_text(TINY_AGENT)
+    (folder / "study-tiny.json").write_text(TINY_STUDY)
     with contextlib.chdir(folder):
         for command in WORKSPACE_COMMANDS:
             assert main(shlex.split(command)) == 0, command

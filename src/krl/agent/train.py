@@ -33,12 +33,14 @@ import json
 import os
 import signal
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import torch
 from stable_baselines3 import PPO
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.vec_env import VecNormalize
 from threadpoolctl import threadpool_limits
@@ -140,6 +142,7 @@ def train(
     workers: int | None = None,
     num_envs: int | None = None,
     device: str = "auto",
+    callbacks: Sequence[BaseCallback] = (),
 ) -> dict[str, Any]:
     """Train (or resume) a residual agent in ``out``; returns a summary (steps, wall time, policy path).
 
@@ -158,6 +161,9 @@ def train(
         num_envs: environments per worker (default: the config's); must match a resumed run's.
         device: where PPO's update runs: ``cpu``, ``cuda`` or ``auto`` (CUDA when PyTorch sees a device);
             the environments always run on the CPU workers.
+        callbacks: more SB3 callbacks, called after krl's own (so a rollout's ``episode/*`` values are in
+            ``logger.name_to_value`` at ``_on_rollout_end``); one whose ``_on_step`` returns False ends the
+            training early, saving its last checkpoint and policy as at the end (an agent study's pruning).
 
     Raises:
         TrainingError: (one line, before anything is written) a run folder or checkpoint that cannot be
@@ -189,7 +195,7 @@ def train(
             _start_from(model, start)
             log(f"starting {out} from {run['initialized_from']['run']} ({start.num_timesteps} env steps)")
         model.set_logger(configure(str(out), ["csv", "tensorboard"]))
-        return _learn(model, out, config, run, total, Clock(wall_before), progress, log)
+        return _learn(model, out, config, run, total, Clock(wall_before), progress, log, callbacks)
     finally:
         venv.close()
 
@@ -482,6 +488,7 @@ def _learn(
     clock: Clock,
     progress: bool,
     log,
+    callbacks: Sequence[BaseCallback] = (),
 ) -> dict[str, Any]:
     """Train ``model`` to ``total`` env steps with the logging, checkpointing and progress callbacks;
     Ctrl-C or SIGTERM saves a checkpoint and re-raises. Returns the summary of :func:`train`."""
@@ -492,7 +499,7 @@ def _learn(
         with threadpool_limits(1, user_api="blas"):
             model.learn(
                 total - model.num_timesteps,
-                callback=[EpisodeLog(clock), checkpointer, bar],
+                callback=[EpisodeLog(clock), checkpointer, bar, *callbacks],
                 reset_num_timesteps=model.num_timesteps == 0,  # a resumed model counts on
             )
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: keep what was learnt, then stop

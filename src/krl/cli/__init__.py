@@ -2,9 +2,10 @@
 
 One module per command group registers its subcommands (``register(subparsers)``): :mod:`krl.cli.sim`
 (terrains, render, view, bench), :mod:`krl.cli.expert` (expert run, expert plot), :mod:`krl.cli.data`
-(collect), :mod:`krl.cli.kernel` (kernel …), :mod:`krl.cli.agent` (agent …), :mod:`krl.cli.eval`
-(evaluate, report), :mod:`krl.cli.demo`, :mod:`krl.cli.export` and :mod:`krl.cli.reproduce`; what they
-share is in :mod:`krl.cli.common`. This package is the only place argparse lives.
+(collect), :mod:`krl.cli.kernel` (kernel …), :mod:`krl.cli.agent` (agent …, with :mod:`krl.cli.study` for
+agent study), :mod:`krl.cli.eval` (evaluate, report), :mod:`krl.cli.demo`, :mod:`krl.cli.export` and
+:mod:`krl.cli.reproduce`; what they share is in :mod:`krl.cli.common`. This package is the only place
+argparse lives.
 
 krl's packages, bottom first; each imports only itself and the packages listed before it
 (``tests/test_imports.py`` holds the order and checks it):

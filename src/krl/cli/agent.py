@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from krl.cli import study
 from krl.cli.common import CliError, emit, run_controller
 from krl.cli.common import add_run_arguments as add_common_run_arguments
 
@@ -160,6 +161,7 @@ def register(subparsers) -> None:
     group = subparsers.add_parser("agent", help="the residual PPO agent").add_subparsers(
         dest="agent_command", required=True, metavar="AGENT_COMMAND"
     )
+    study.register(group)
     p = group.add_parser("train", help="train (or resume) a residual agent with PPO")
     p.add_argument("--out", required=True, help="run folder; an existing one resumes")
     p.add_argument("--seed", type=int, help="seed of the run (default 0)")

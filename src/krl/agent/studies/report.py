@@ -1,0 +1,322 @@
+"""An agent study's tables and figures from its Optuna storage, of whatever has finished so far.
+
+Every number comes from the trials' user attributes (:mod:`krl.agent.studies.runner`), so any machine
+that reaches the storage can write the report. ``NAME.md`` holds the table with the budget used beside the
+thesis's and the command that regenerates it; ``NAME.csv`` one row per trained run; ``NAME.png`` the mean
+learning curves with their spread over seeds. A search adds its trials (``NAME-search.csv``) and, when it
+ran unpruned, what the pruner would have saved on exactly those trials (:func:`replay_pruning`).
+"""
+
+from __future__ import annotations
+
+import statistics
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from krl.agent.studies.designs import StudyDesign
+from krl.agent.studies.runner import (
+    CONFIRM,
+    LIST,
+    SEARCH,
+    StudySettings,
+    best_trials,
+    open_stage,
+    plan_entries,
+)
+from krl.util.output import csv_bytes, figure_bytes, write_atomic
+
+THESIS_FINDINGS: dict[str, str] = {
+    "ppo-search": "100 random trials of 3e6 steps, the best 5 trained from 4 seeds for 5e6 steps (Fig. 4.17, "
+    "curves only); trial 3 chosen: lr 1e-3, 10 epochs, batch 4000, entropy 5e-6, the small network.",
+    "state-space": "Fig. 4.20 (curves only): phases and contacts help; the residual helps more, and with it "
+    "the phases no longer do; the best set is the residual and the foot contacts.",
+}
+"""What the thesis reports for each study (its studies give figures, not numbers)."""
+
+
+def _finished(study) -> list:
+    from optuna.trial import TrialState
+
+    return [
+        t
+        for t in study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.PRUNED))
+        if not t.user_attrs.get("surplus")
+    ]
+
+
+def _mean_std(values: Sequence[float]) -> tuple[float | None, float | None]:
+    values = [v for v in values if v is not None]
+    if not values:
+        return None, None
+    return statistics.fmean(values), (statistics.stdev(values) if len(values) > 1 else 0.0)
+
+
+def group_rows(trials: Sequence[Any], group_of) -> list[dict[str, Any]]:
+    """One row per group (``group_of(trial)``): seeds trained, final targets reached and success rate,
+    mean and sample std over the seeds, mean env steps per run."""
+    groups: dict[str, list[Any]] = {}
+    for trial in trials:
+        groups.setdefault(group_of(trial), []).append(trial)
+    rows = []
+    for name, members in groups.items():
+        targets = _mean_std([t.user_attrs.get("targets_reached") for t in members])
+        success = _mean_std([t.user_attrs.get("success_rate") for t in members])
+        rows.append(
+            {
+                "group": name,
+                "runs": len(members),
+                "seeds": ",".join(str(t.user_attrs.get("seed")) for t in members),
+                "targets_mean": targets[0],
+                "targets_std": targets[1],
+                "success_mean": success[0],
+                "success_std": success[1],
+                "env_steps": round(statistics.fmean(t.user_attrs.get("env_steps", 0) for t in members)),
+            }
+        )
+    return sorted(rows, key=lambda row: -(row["targets_mean"] or 0.0))
+
+
+def mean_curves(trials: Sequence[Any], group_of, grid_steps: float) -> dict[str, dict[str, np.ndarray]]:
+    """Per group, the mean and std over its runs of the targets reached and success rate on a common grid
+    of env steps (every ``grid_steps``, up to the shortest run)."""
+    groups: dict[str, list[np.ndarray]] = {}
+    for trial in trials:
+        curve = np.array(trial.user_attrs.get("curve", []), dtype=float).reshape(-1, 3)
+        if len(curve):
+            groups.setdefault(group_of(trial), []).append(curve)
+    out = {}
+    for name, curves in groups.items():
+        end = min(c[-1, 0] for c in curves)
+        grid = np.arange(grid_steps, end + 1, grid_steps) if end >= grid_steps else np.array([end])
+        series = {}
+        for column, label in ((1, "targets"), (2, "success")):
+            stacked = []
+            for curve in curves:
+                known = np.isfinite(curve[:, column])
+                if known.any():
+                    stacked.append(np.interp(grid, curve[known, 0], curve[known, column]))
+            if stacked:
+                series[label] = np.array(stacked)
+        out[name] = {"steps": grid, **series, "runs": len(curves)}
+    return out
+
+
+def replay_pruning(trials: Sequence[Any], pruner) -> dict[str, Any]:
+    """What ``pruner`` (an Optuna pruner) would have done to a search run unpruned: the recorded learning
+    curves replayed in trial order through a fresh in-memory study. Returns the env steps it would have
+    trained (a pruned trial stops at the rollout it was pruned after), against those trained, and whether
+    the best :data:`top` by final targets would have been kept (the ones it prunes cannot be chosen)."""
+    import optuna
+
+    study = optuna.create_study(direction="maximize", pruner=pruner)
+    used, full, kept = 0, 0, []
+    for trial in sorted(trials, key=lambda t: t.number):
+        curve = [row for row in trial.user_attrs.get("curve", []) if row[1] is not None]
+        replay = study.ask()
+        steps = trial.user_attrs.get("env_steps", curve[-1][0] if curve else 0)
+        stopped = steps
+        for step, targets, _ in curve:
+            replay.report(targets, step)
+            if replay.should_prune():
+                stopped = step
+                break
+        if stopped < steps:
+            study.tell(replay, state=optuna.trial.TrialState.PRUNED)
+        else:
+            study.tell(replay, trial.user_attrs.get("targets_reached"))
+            kept.append(trial.number)
+        used, full = used + stopped, full + steps
+    return {"env_steps_unpruned": full, "env_steps_pruned": used, "kept": kept}
+
+
+def study_status(design: StudyDesign, settings: StudySettings, url: str) -> dict[str, Any]:
+    """How far the study is: per stage, trials finished (complete, pruned), failed with an error, and
+    the planned entries (or search trials) still missing."""
+    from optuna.trial import TrialState
+
+    def counts(study, planned: int) -> dict[str, int]:
+        trials = [t for t in study.get_trials(deepcopy=False) if not t.user_attrs.get("surplus")]
+        finished = _finished(study)
+        failed = [t for t in trials if t.state == TrialState.FAIL and "error" in t.user_attrs]
+        done = {t.user_attrs.get("key", t.number) for t in finished + failed}
+        return {
+            "finished": len(finished),
+            "pruned": sum(t.state == TrialState.PRUNED for t in finished),
+            "failed": len(failed),
+            "missing": max(0, planned - len(done)),
+        }
+
+    if not design.is_search:
+        study = open_stage(design, settings, LIST, url)
+        return {
+            "study": design.name,
+            "storage": url,
+            LIST: counts(study, len(plan_entries(design, settings, LIST))),
+        }
+    search = open_stage(design, settings, SEARCH, url)
+    status = {"study": design.name, "storage": url, SEARCH: counts(search, settings.trials)}
+    best = best_trials(search, settings.top)
+    confirm = open_stage(design, settings, CONFIRM, url)
+    status[CONFIRM] = counts(confirm, settings.top * len(settings.seeds))
+    status["best"] = [{"trial": t.number, "targets_reached": t.value, "params": t.params} for t in best]
+    return status
+
+
+def _table(rows: Sequence[dict[str, Any]], label: str) -> list[str]:
+    def pm(mean, std):
+        return "–" if mean is None else f"{mean:.2f} ± {std:.2f}"
+
+    lines = [
+        f"| {label} | runs (seeds) | targets reached | success rate | env steps per run |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    for row in rows:
+        lines.append(
+            f"| {row['group']} | {row['runs']} ({row['seeds']}) "
+            f"| {pm(row['targets_mean'], row['targets_std'])} "
+            f"| {pm(row['success_mean'], row['success_std'])} | {row['env_steps']:.3g} |"
+        )
+    return lines
+
+
+def _figure(path: Path, curves: dict[str, dict[str, np.ndarray]], title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 3.6))
+    for name, curve in curves.items():
+        for ax, label in zip(axes, ("targets", "success"), strict=True):
+            if label in curve:
+                values = curve[label]
+                x = curve["steps"] / 1e6
+                (line,) = ax.plot(x, values.mean(axis=0), label=f"{name} ({len(values)})", linewidth=1.2)
+                ax.fill_between(
+                    x,
+                    values.mean(0) - values.std(0),
+                    values.mean(0) + values.std(0),
+                    color=line.get_color(),
+                    alpha=0.15,
+                )
+    axes[0].set_title("targets reached per 60 s episode", fontsize=10)
+    axes[1].set_title("success rate (>= 2 targets, no fall)", fontsize=10)
+    for ax in axes:
+        ax.set_xlabel("env steps [1e6]")
+        ax.grid(alpha=0.3)
+    axes[1].set_ylim(-0.02, 1.02)
+    axes[0].legend(fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    write_atomic(path, figure_bytes(fig))
+    plt.close(fig)
+
+
+def _budget_line(design: StudyDesign, settings: StudySettings) -> str:
+    ours = f"{settings.budget:.3g} env steps per trial, seeds {', '.join(map(str, settings.seeds))}"
+    thesis = f"{design.budget:.3g} env steps per trial, seeds {', '.join(map(str, design.seeds))}"
+    if design.is_search:
+        ours += f"; {settings.trials} trials, best {settings.top} confirmed for {settings.confirm_budget:.3g}"
+        thesis += f"; {design.trials} trials, best {design.top} confirmed for {design.confirm_budget:.3g}"
+    return f"Budget: {ours} (the thesis: {thesis})."
+
+
+def _rows_csv(trials: Sequence[Any], group_of) -> bytes:
+    columns = [
+        "trial",
+        "group",
+        "seed",
+        "state",
+        "targets_reached",
+        "success_rate",
+        "env_steps",
+        "wall_seconds",
+    ]
+    rows = [
+        {
+            "trial": t.number,
+            "group": group_of(t),
+            "seed": t.user_attrs.get("seed"),
+            "state": t.state.name,
+            **{key: t.user_attrs.get(key) for key in columns[4:]},
+        }
+        for t in trials
+    ]
+    return csv_bytes(columns, rows)
+
+
+def write_study_report(
+    design: StudyDesign, settings: StudySettings, url: str, out: Path, command: str = ""
+) -> dict[str, Any]:
+    """Write ``NAME.md``, ``NAME.csv`` and ``NAME.png`` (and a search's ``NAME-search.csv``) into ``out``
+    from the finished trials; returns the files and the study's status."""
+    status = study_status(design, settings, url)
+    out.mkdir(parents=True, exist_ok=True)
+    lines = [f"# Agent study {design.name} ({design.title})", "", _budget_line(design, settings), ""]
+    if command:
+        lines += ["Made by:", "", f"    {command}", ""]
+    lines += [f"The thesis: {THESIS_FINDINGS.get(design.name, '')}", ""]
+    written = []
+    if design.is_search:
+        search = open_stage(design, settings, SEARCH, url)
+        searched = _finished(search)
+        write_atomic(out / f"{design.name}-search.csv", _rows_csv(searched, lambda t: f"trial{t.number}"))
+        written.append(str(out / f"{design.name}-search.csv"))
+        lines += _search_lines(design, settings, searched, status)
+        trials = _finished(open_stage(design, settings, CONFIRM, url))
+        group_of = lambda t: f"trial{t.params['candidate']}"  # noqa: E731
+        grid = settings.confirm_budget / 25
+    else:
+        trials = _finished(open_stage(design, settings, LIST, url))
+        group_of = lambda t: t.params["variant"]  # noqa: E731
+        grid = settings.budget / 25
+    missing = status[CONFIRM if design.is_search else LIST]["missing"]
+    lines += [f"Runs finished: {len(trials)}; missing: {missing}.", ""]
+    lines += _table(group_rows(trials, group_of), "candidate" if design.is_search else "variant")
+    write_atomic(out / f"{design.name}.csv", _rows_csv(trials, group_of))
+    if trials:
+        _figure(
+            out / f"{design.name}.png", mean_curves(trials, group_of, grid), f"{design.name} ({design.title})"
+        )
+        written.append(str(out / f"{design.name}.png"))
+        lines += ["", f"![{design.name}]({design.name}.png)"]
+    write_atomic(out / f"{design.name}.md", "\n".join(lines) + "\n")
+    return {
+        "written": [str(out / f"{design.name}.md"), str(out / f"{design.name}.csv"), *written],
+        "status": status,
+    }
+
+
+def _search_lines(design: StudyDesign, settings: StudySettings, searched, status) -> list[str]:
+    """The search's part of the report: its trials, the best ones, and the pruning replay."""
+    import optuna
+
+    lines = [
+        f"Search trials finished: {status[SEARCH]['finished']} ({status[SEARCH]['pruned']} pruned, "
+        f"{status[SEARCH]['failed']} failed); missing: {status[SEARCH]['missing']}.",
+        "",
+        "| best trial | final targets reached | parameters |",
+        "| --- | --- | --- |",
+    ]
+    for best in status["best"]:
+        params = ", ".join(
+            f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in best["params"].items()
+        )
+        lines.append(f"| {best['trial']} | {best['targets_reached']:.2f} | {params} |")
+    if settings.pruner == "none" and searched:
+        replay = replay_pruning(
+            searched, optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=settings.budget // 5)
+        )
+        top = [b["trial"] for b in status["best"]]
+        saved = replay["env_steps_unpruned"] / max(1, replay["env_steps_pruned"])
+        lines += [
+            "",
+            f"Pruning replayed on these unpruned trials (Optuna's median pruner, 5 startup trials, warm-up "
+            f"{settings.budget // 5:.3g} steps): {replay['env_steps_pruned']:.3g} env steps instead of "
+            f"{replay['env_steps_unpruned']:.3g} ({saved:.2f}x cheaper); it keeps "
+            f"{sum(t in replay['kept'] for t in top)} of the best {len(top)}.",
+        ]
+    return [*lines, ""]

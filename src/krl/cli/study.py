@@ -1,0 +1,130 @@
+"""``krl agent study NAME``: the thesis's agent studies on Optuna, one machine or many (docs/studies.md)."""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing
+from pathlib import Path
+
+from krl.cli.common import CliError, emit, parse_ints
+
+
+def _settings(args: argparse.Namespace, design):
+    from krl.agent.config import AgentConfigError
+    from krl.agent.studies.runner import StudyError, StudySettings
+
+    shared = None
+    if args.config:
+        import json
+
+        try:
+            shared = json.loads(Path(args.config).read_text())
+        except (OSError, ValueError) as error:
+            raise CliError(f"--config {args.config}: {error}") from None
+    try:
+        settings = StudySettings.of(
+            design,
+            budget=args.budget,
+            confirm_budget=args.confirm_budget,
+            seeds=None if args.seeds is None else tuple(parse_ints(args.seeds, "--seeds")),
+            trials=args.trials,
+            top=args.top,
+            sampler=args.sampler,
+            pruner=args.pruner,
+            workers=args.workers,
+            num_envs=args.num_envs,
+            shared=shared,
+        )
+        from krl.agent.studies.runner import trial_config
+
+        trial_config(design, settings, {}, settings.budget)  # a bad --config: one line, before any trial
+    except (StudyError, AgentConfigError) as error:
+        raise CliError(str(error)) from None
+    return settings
+
+
+def _work(name: str, settings, out: str, url: str, heartbeat: float, quiet: bool) -> None:
+    """One study process (the parent's, or a spawned job's)."""
+    from krl.agent.studies.designs import STUDIES
+    from krl.agent.studies.runner import work
+
+    work(STUDIES[name], settings, Path(out), url, heartbeat, log=(lambda _: None) if quiet else print)
+
+
+def run_study(args: argparse.Namespace) -> int:
+    from krl.agent.studies.designs import STUDIES
+    from krl.agent.studies.report import study_status, write_study_report
+    from krl.agent.studies.runner import StudyError
+    from krl.util.parallel import usable_cores
+
+    if args.name not in STUDIES:
+        raise CliError(f"unknown study {args.name!r}; known: {', '.join(STUDIES)}")
+    design = STUDIES[args.name]
+    settings = _settings(args, design)
+    out = Path(args.out or f"runs/agent-studies/{design.name}")
+    url = args.storage or f"sqlite:///{(out / 'study.db').resolve()}"
+    jobs = args.jobs or max(1, usable_cores() // max(1, settings.workers))
+    try:
+        if args.report:
+            written = write_study_report(design, settings, url, Path(args.report_out or out / "report"))
+            emit(written, args.json)
+            return 0
+        out.mkdir(parents=True, exist_ok=True)
+        spawn = multiprocessing.get_context("spawn")
+        others = [
+            spawn.Process(target=_work, args=(design.name, settings, str(out), url, args.heartbeat, True))
+            for _ in range(jobs - 1)
+        ]
+        for process in others:
+            process.start()
+        try:
+            _work(design.name, settings, str(out), url, args.heartbeat, args.quiet)
+        finally:
+            for process in others:
+                process.join()
+    except StudyError as error:
+        raise CliError(str(error)) from None
+    emit(study_status(design, settings, url), args.json)
+    return 0
+
+
+def register(group) -> None:
+    """``krl agent study`` under the ``krl agent`` group."""
+    p = group.add_parser(
+        "study",
+        help="one of the thesis's agent studies (ppo-search, state-space, ...) on Optuna; resumable, "
+        "and shared by every process given the same --storage",
+    )
+    p.add_argument("name", help="the study (docs/studies.md lists them)")
+    p.add_argument(
+        "--out", help="trial run folders and the default storage (default runs/agent-studies/NAME)"
+    )
+    p.add_argument(
+        "--storage",
+        help="Optuna storage URL: sqlite:///FILE (default OUT/study.db) or postgresql://USER:PASS@HOST/DB "
+        "for many machines",
+    )
+    p.add_argument("--budget", type=int, help="env steps per trial (default: the thesis's)")
+    p.add_argument("--confirm-budget", type=int, help="env steps of a search's confirming runs")
+    p.add_argument("--trials", type=int, help="a search's random trials (default: the thesis's 100)")
+    p.add_argument("--top", type=int, help="a search's best trials trained from every seed (default 5)")
+    p.add_argument("--seeds", help="training seeds (default: the thesis's 150,215,345,556)")
+    p.add_argument("--sampler", choices=("random", "tpe"), help="a search's sampler (default random)")
+    p.add_argument(
+        "--pruner", choices=("median", "halving", "none"), help="a search's pruner (default median)"
+    )
+    p.add_argument("--config", help="JSON settings every trial shares (e.g. num_envs), under the trial's own")
+    p.add_argument("--jobs", type=int, help="trainings at once (default: usable cores / --workers)")
+    p.add_argument("--workers", type=int, help="environment processes per training (default 2)")
+    p.add_argument("--num-envs", type=int, help="environments per worker (default: the config's)")
+    p.add_argument(
+        "--heartbeat",
+        type=float,
+        default=60.0,
+        help="seconds between a running trial's heartbeats; a trial silent for 3 is retried (default 60)",
+    )
+    p.add_argument("--report", action="store_true", help="write the tables and figures of what has finished")
+    p.add_argument("--report-out", help="where --report writes (default OUT/report)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=run_study)

@@ -1,0 +1,274 @@
+"""Agent studies on Optuna: the designs against the thesis's tables, and the runner's promises (every
+planned entry trained once, interrupted and stale trials resumed, finished ones never redone) on a fake
+training whose learning curve is known; one real tiny study end to end."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import optuna
+import pytest
+
+from krl.agent.curves import STEPS_COLUMN
+from krl.agent.studies import designs, runner
+from krl.agent.studies.designs import STUDIES, StudyDesign, Variant
+from krl.agent.studies.report import replay_pruning, write_study_report
+from krl.agent.studies.runner import CONFIRM, LIST, SEARCH, StudySettings, open_stage, work
+from krl.cli import main
+from krl.task.reward import reward_name
+
+COLUMNS = (
+    STEPS_COLUMN,
+    "episode/reward",
+    "episode/targets_reached",
+    "episode/fall_rate",
+    "episode/success_rate",
+)
+
+
+def fake_train(calls: list):
+    """A stand-in for :func:`krl.agent.train.train`: logs 4 rollouts whose targets reached rise to
+    ``10 * learning_rate * 1000 / 10`` (so the learning rate decides a search), honours an SB3 callback's
+    stop at ``_on_step``, and records each call."""
+
+    def train(folder, config, seed, progress, log, workers, num_envs, callbacks):
+        calls.append((Path(folder).name, seed))
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        goal = config.ppo.learning_rate * 1000 + (0.1 if seed == 2 else 0.0)
+        rows, steps = [], 0
+        for rollout in range(1, 5):
+            steps = rollout * config.total_steps // 4
+            targets = goal * rollout / 4
+            rows.append([steps, 1.0, targets, 0.0, min(1.0, targets / 5)])
+            stop = False
+            for callback in callbacks:
+                callback.num_timesteps = steps
+                callback.model = SimpleNamespace(
+                    logger=SimpleNamespace(name_to_value={"episode/targets_reached": targets})
+                )
+                callback._on_rollout_end()
+                stop = stop or not callback._on_step()
+            if stop:
+                break
+        lines = [",".join(COLUMNS)] + [",".join(map(str, row)) for row in rows]
+        (folder / "progress.csv").write_text("\n".join(lines) + "\n")
+        return {"env_steps": steps, "wall_seconds": 1.0, "out": str(folder), "policy": ""}
+
+    return train
+
+
+@pytest.fixture
+def calls(monkeypatch):
+    made: list = []
+    monkeypatch.setattr("krl.agent.train.train", fake_train(made))
+    return made
+
+
+LIST_DESIGN = StudyDesign(
+    name="tiny-list",
+    title="test",
+    base={},
+    budget=400,
+    variants=(
+        Variant("slow", "lr 1e-3", {"ppo": {"learning_rate": 1e-3}}),
+        Variant("fast", "lr 3e-3", {"ppo": {"learning_rate": 3e-3}}),
+    ),
+    seeds=(1, 2),
+)
+
+
+def search_space(trial):
+    return {"ppo": {"learning_rate": trial.suggest_categorical("learning_rate", [5e-5, 5e-4, 1e-3, 3e-3])}}
+
+
+SEARCH_DESIGN = StudyDesign(
+    name="tiny-search",
+    title="test",
+    base={},
+    budget=400,
+    space=search_space,
+    trials=6,
+    top=2,
+    confirm_budget=200,
+    seeds=(1, 2),
+)
+
+
+def sqlite(tmp_path: Path) -> str:
+    return f"sqlite:///{tmp_path / 'study.db'}"
+
+
+def test_the_ppo_search_space_is_table_a3():
+    ppo = STUDIES["ppo-search"]
+    assert (ppo.budget, ppo.trials, ppo.top, ppo.confirm_budget) == (3_000_000, 100, 5, 5_000_000)
+    assert designs.PPO_LEARNING_RATES == (3e-3, 1e-3, 5e-4, 5e-5)
+    assert (designs.PPO_EPOCHS, designs.PPO_BATCH_SIZES) == ((5, 10, 20), (500, 2000, 4000))
+    assert designs.PPO_NETWORKS == {"large": [256, 256, 256], "medium": [256, 256], "small": [128, 128]}
+    assert designs.PPO_ENTROPY_RANGE == (1e-6, 1e-3) and ppo.base["ppo"]["rollout_steps"] == 20_000
+    trial3 = {"learning_rate": 1e-3, "ent_coef": 5e-6, "network": "small", "n_epochs": 10, "batch_size": 4000}
+    drawn = designs.ppo_space(optuna.trial.FixedTrial(trial3))["ppo"]
+    assert drawn == {
+        "learning_rate": 1e-3,
+        "ent_coef": 5e-6,
+        "shared": [128, 128],
+        "n_epochs": 10,
+        "batch_size": 4000,
+    }
+    config = runner.trial_config(ppo, StudySettings.of(ppo), {"ppo": drawn}, 3_000_000)
+    assert config.env.heightfield_max_height == (0.0035, 0.0035) and not config.env.pushes
+    assert config.env.heightfield_probability == 1.0 and reward_name(config.env.reward) == "initial"
+    assert config.observation.features[-2:] == ("phase", "foot_contact") and config.ppo.actor == (128,)
+
+
+def test_the_state_space_sets_are_fig_4_20():
+    study = STUDIES["state-space"]
+    sets = {
+        v.name: v.overrides["observation"]["features"][len(designs.CORE_FEATURES) :] for v in study.variants
+    }
+    assert sets["residual-contacts"] == ["residual", "foot_contact"]
+    assert sets["targets-contacts"] == ["kernel_targets", "foot_contact"] and sets["core"] == []
+    assert all(
+        v.overrides["observation"]["features"][:7] == list(designs.CORE_FEATURES) for v in study.variants
+    )
+    config = runner.trial_config(study, StudySettings.of(study), study.variants[-1].overrides, 1)
+    assert reward_name(config.env.reward) == "base" and config.num_envs == designs.STUDY_NUM_ENVS
+
+
+def test_a_list_study_trains_each_entry_once_and_a_rerun_trains_nothing(tmp_path, calls):
+    settings = StudySettings.of(LIST_DESIGN)
+    work(LIST_DESIGN, settings, tmp_path, sqlite(tmp_path), heartbeat=1, log=lambda _: None)
+    assert sorted(calls) == [("fast-seed1", 1), ("fast-seed2", 2), ("slow-seed1", 1), ("slow-seed2", 2)]
+    work(LIST_DESIGN, settings, tmp_path, sqlite(tmp_path), heartbeat=1, log=lambda _: None)
+    assert len(calls) == 4
+    written = write_study_report(LIST_DESIGN, settings, sqlite(tmp_path), tmp_path / "report")
+    table = (tmp_path / "report" / "tiny-list.md").read_text()
+    assert "| fast | 2 (1,2) | 3.05 ± 0.07 |" in table  # final = mean of the last 20 % of rollouts: 3 and 3.1
+    assert written["status"][LIST] == {"finished": 4, "pruned": 0, "failed": 0, "missing": 0}
+    with pytest.raises(runner.StudyError, match="other settings \\(budget: budget 400\\)"):
+        work(LIST_DESIGN, StudySettings.of(LIST_DESIGN, budget=800), tmp_path, sqlite(tmp_path))
+
+
+def test_a_popped_entry_that_another_process_holds_is_surplus_not_a_second_run(tmp_path, calls):
+    settings = StudySettings.of(LIST_DESIGN)
+    study = open_stage(LIST_DESIGN, settings, LIST, sqlite(tmp_path))
+    entries = runner.plan_entries(LIST_DESIGN, settings, LIST)
+    runner.enqueue(study, entries)
+    distributions = {
+        "variant": optuna.distributions.CategoricalDistribution(["slow", "fast"]),
+        "seed": optuna.distributions.CategoricalDistribution([1, 2]),
+    }
+    for entry in entries[:2]:  # the race: another process enqueued these twice
+        twice = optuna.trial.create_trial(
+            state=optuna.trial.TrialState.WAITING,
+            user_attrs={"key": entry["key"]},
+            params=entry["params"],
+            distributions=distributions,
+        )
+        study.add_trial(twice)
+    work(LIST_DESIGN, settings, tmp_path, sqlite(tmp_path), heartbeat=1, log=lambda _: None)
+    assert len(calls) == 4 and len({call for call in calls}) == 4
+    surplus = [t for t in study.get_trials() if t.user_attrs.get("surplus")]
+    assert len(surplus) == 2 and all(t.state == optuna.trial.TrialState.FAIL for t in surplus)
+
+
+def test_a_stale_trial_of_a_dead_process_is_retried_in_its_folder(tmp_path, calls):
+    settings = StudySettings.of(LIST_DESIGN, seeds=(1,))
+    url = sqlite(tmp_path)
+    study = open_stage(LIST_DESIGN, settings, LIST, url, heartbeat=1)
+    runner.enqueue(study, runner.plan_entries(LIST_DESIGN, settings, LIST))
+    dead = study.ask()  # popped by a process that then died: one heartbeat, then silence
+    dead.suggest_categorical("variant", ["slow", "fast"]), dead.suggest_categorical("seed", [1])
+    study._storage.record_heartbeat(dead._trial_id)
+    time.sleep(3.5)
+    work(LIST_DESIGN, settings, tmp_path, url, heartbeat=1, log=lambda _: None)
+    assert sorted(calls) == [("fast-seed1", 1), ("slow-seed1", 1)]
+    states = [t.state.name for t in open_stage(LIST_DESIGN, settings, LIST, url).get_trials()]
+    assert states.count("COMPLETE") == 2 and states.count("FAIL") == 1
+
+
+def test_an_interrupted_trial_is_queued_again_not_lost(tmp_path, monkeypatch):
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("krl.agent.train.train", interrupted)
+    settings = StudySettings.of(LIST_DESIGN, seeds=(1,))
+    with pytest.raises(KeyboardInterrupt):
+        work(LIST_DESIGN, settings, tmp_path, sqlite(tmp_path), log=lambda _: None)
+    made: list = []
+    monkeypatch.setattr("krl.agent.train.train", fake_train(made))
+    work(LIST_DESIGN, settings, tmp_path, sqlite(tmp_path), log=lambda _: None)
+    assert sorted(made) == [("fast-seed1", 1), ("slow-seed1", 1)]
+
+
+def test_a_search_draws_its_trials_then_confirms_the_best_from_every_seed(tmp_path, calls):
+    settings = StudySettings.of(SEARCH_DESIGN, pruner="none")
+    work(SEARCH_DESIGN, settings, tmp_path, sqlite(tmp_path), heartbeat=1, log=lambda _: None)
+    search = [name for name, _ in calls if "seed" not in name]
+    confirm = sorted(call for call in calls if "seed" in call[0])
+    assert len(search) == 6 and len(confirm) == 4
+    study = open_stage(SEARCH_DESIGN, settings, SEARCH, sqlite(tmp_path))
+    best = runner.best_trials(study, 2)
+    assert best[0].params["learning_rate"] == max(t.params["learning_rate"] for t in study.trials)
+    assert {name.split("-")[0] for name, _ in confirm} == {f"trial{t.number}" for t in best}
+    written = write_study_report(SEARCH_DESIGN, settings, sqlite(tmp_path), tmp_path / "report")
+    assert written["status"][CONFIRM]["missing"] == 0
+    assert "Pruning replayed on these unpruned trials" in (tmp_path / "report" / "tiny-search.md").read_text()
+
+
+def test_the_pruning_replay_counts_the_steps_a_pruner_saves():
+    def trial(number, final):
+        curve = [[step, final * step / 400, 0.0] for step in (100, 200, 300, 400)]
+        return optuna.trial.create_trial(value=final, user_attrs={"curve": curve, "env_steps": 400,
+                                         "targets_reached": final}, params={}, distributions={})  # fmt: skip
+
+    trials = [trial(n, final) for n, final in enumerate([3.0, 3.0, 3.0, 1.0, 2.9])]
+    for n, t in enumerate(trials):
+        t.number = n
+    replay = replay_pruning(trials, optuna.pruners.MedianPruner(n_startup_trials=3, n_warmup_steps=150))
+    assert replay["env_steps_unpruned"] == 2000
+    assert replay["env_steps_pruned"] == 1200 + 200 + 200 and replay["kept"] == [0, 1, 2]
+
+
+def test_krl_agent_study_refuses_bad_input_in_one_line(tmp_path, capsys):
+    for argv, message in (
+        (["nope"], "unknown study 'nope'; known: ppo-search"),
+        (["ppo-search", "--seeds", "1,1"], "seeds must be distinct"),
+        (["ppo-search", "--budget", "0"], "at least 1 env step"),
+        (["state-space", "--config", str(tmp_path / "none.json")], "--config"),
+    ):
+        assert main(["agent", "study", *argv, "--out", str(tmp_path / "s")]) == 2
+        error = capsys.readouterr().err
+        assert message in error and error.count("\n") == 1
+    assert not (tmp_path / "s").exists()
+
+
+def test_a_tiny_study_trains_for_real(tmp_path, capsys):
+    tiny = tmp_path / "tiny.json"
+    ppo = {
+        "rollout_steps": 128,
+        "batch_size": 64,
+        "n_epochs": 1,
+        "shared": [16],
+        "actor": [16],
+        "critic": [8],
+    }
+    shared = {"ppo": ppo, "num_envs": 2, "checkpoint_every": 256, "env": {"episode_time": 0.5}}
+    tiny.write_text(json.dumps(shared))
+    argv = ["agent", "study", "ppo-search", "--out", str(tmp_path / "s"), "--trials", "1", "--top", "1"]
+    argv += ["--seeds", "7", "--budget", "256", "--confirm-budget", "256", "--config", str(tiny)]
+    argv += ["--workers", "1", "--jobs", "1", "--quiet", "--json"]
+    assert main(argv) == 0
+    status = json.loads(capsys.readouterr().out)
+    assert status[SEARCH]["finished"] == 1 and status[CONFIRM] == {
+        "finished": 1,
+        "pruned": 0,
+        "failed": 0,
+        "missing": 0,
+    }
+    assert (
+        tmp_path / "s" / "trials" / "confirm" / f"trial{status['best'][0]['trial']}-seed7" / "policy.npz"
+    ).is_file()
