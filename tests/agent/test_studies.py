@@ -272,3 +272,68 @@ def test_a_tiny_study_trains_for_real(tmp_path, capsys):
     assert (
         tmp_path / "s" / "trials" / "confirm" / f"trial{status['best'][0]['trial']}-seed7" / "policy.npz"
     ).is_file()
+
+
+def test_the_reward_features_are_table_4_7():
+    rewards = {name: reward for name, (_, reward) in designs.TRIAL_REWARDS.items()}
+    assert list(rewards) == [
+        "initial", "t1-no-com", "t2-no-target", "t3-constraints", "t4-shortfall", "t5-fall", "t6-target",
+        "t7-both", "t8-slip-reward", "t9-slip-penalty", "t10-drift-penalty",
+    ]  # fmt: skip
+    names = {name: [t.name for t in reward.terms] for name, reward in rewards.items()}
+    initial = ["linear_velocity", "angular_velocity", "gravity", "target_distance"]
+    assert names["initial"] == initial and all(t.weight == 0.01 for t in rewards["initial"].terms)
+    assert names["t1-no-com"] == ["linear_velocity", "angular_velocity", "target_distance"]
+    assert names["t2-no-target"] == initial[:3]
+    assert names["t3-constraints"] == [*initial, "vertical_velocity", "roll_pitch_rate"]
+    shortfall = {t.name: t.shortfall for t in rewards["t4-shortfall"].terms}
+    assert shortfall == {
+        "linear_velocity": True,
+        "angular_velocity": True,
+        "gravity": False,
+        "target_distance": False,
+    }
+    nominal = {name: (r.fall_penalty, r.target_bonus) for name, r in rewards.items()}
+    assert nominal["initial"] == nominal["t4-shortfall"] == (None, None)
+    assert (nominal["t5-fall"], nominal["t6-target"], nominal["t7-both"]) == (
+        (-5.0, None),
+        (None, 5.0),
+        (-5.0, 5.0),
+    )
+    extra = {
+        name: rewards[name].terms[-1] for name in ("t8-slip-reward", "t9-slip-penalty", "t10-drift-penalty")
+    }
+    assert [(t.quantity, t.penalty) for t in extra.values()] == [
+        ("stance_slip", False), ("stance_slip", True), ("stance_drift", True),
+    ]  # fmt: skip
+    assert all(nominal[name] == (-5.0, 5.0) for name in extra)
+
+
+def test_the_reward_searches_start_from_trial_7():
+    for name, key in (("reward-rbf", "q_"), ("reward-weights", "w_")):
+        design = STUDIES[name]
+        drawn = design.space(optuna.trial.FixedTrial({f"{key}{term}": 3.0 if key == "q_" else 0.002
+                                                      for term in designs.RBF_RANGES}))  # fmt: skip
+        reward = runner.trial_config(design, StudySettings.of(design), drawn, 1).env.reward
+        assert (reward.fall_penalty, reward.target_bonus) == (-5.0, 5.0)
+        value = {t.name: (t.steepness if key == "q_" else t.weight) for t in reward.terms}
+        assert value == dict.fromkeys(designs.RBF_RANGES, 3.0 if key == "q_" else 0.002)
+    assert designs.RBF_RANGES["linear_velocity"] == (15.0, 20.0) and designs.WEIGHT_RANGE == (0.001, 0.005)
+
+
+def test_a_reward_of_stance_terms_trains_in_the_environment(small_config):
+    from dataclasses import replace
+
+    import numpy as np
+
+    from krl.agent.env import ResidualVecEnv
+
+    reward = designs.TRIAL_REWARDS["t10-drift-penalty"][1]
+    config = replace(small_config, env=replace(small_config.env, reward=reward, pushes=False))
+    env = ResidualVecEnv(config, 2, seed=0)
+    env.reset()
+    for _ in range(3):
+        env.step(np.zeros((2, 12)))
+    terms = env.batch.last_terms
+    assert set(terms) == {*(t.name for t in reward.terms), "fall", "target_reached"}
+    assert np.all(terms["stance_drift"] <= 0.0)

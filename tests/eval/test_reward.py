@@ -121,3 +121,66 @@ def test_malformed_rewards_are_one_line_errors(data, message):
     with pytest.raises(RewardConfigError, match=message.replace("(", r"\(")) as error:
         RewardConfig.from_json(data)
     assert "\n" not in str(error.value)
+
+
+def test_a_shortfall_term_costs_only_falling_short_of_the_command():
+    term = RBFTerm("v", "planar_velocity", "command", 10.0, 1.0, shortfall=True)
+    reward = RewardConfig((term,), None, None)
+    command = np.array([0.5, 0.0, 0.0])
+    faster = reward_terms(reward, command, make_state(lin_vel=(0.7, 0.1, 0.0)), 0.0, False, False)
+    assert faster["v"] == pytest.approx(1.0)  # ahead of the command, and sideways where it asks nothing
+    slower = reward_terms(reward, command, make_state(lin_vel=(0.3, 0.1, 0.0)), 0.0, False, False)
+    assert slower["v"] == pytest.approx(math.exp(-10.0 * 0.04))
+    backward = np.array([-0.5, 0.0, 0.0])
+    assert reward_terms(reward, backward, make_state(lin_vel=(-0.2, 0.0, 0.0)), 0.0, False, False)[
+        "v"
+    ] == pytest.approx(math.exp(-10.0 * 0.09))
+    with pytest.raises(RewardConfigError, match="shortfall needs the command"):
+        RBFTerm("g", "gravity", (0.0, 0.0, -1.0), 1.0, 1.0, shortfall=True)
+
+
+def test_penalty_terms_and_the_new_velocity_quantities():
+    terms = (
+        RBFTerm("vz", "vertical_velocity", (0.0,), 18.42, 0.01, penalty=True),
+        RBFTerm("rates", "roll_pitch_rate", (0.0, 0.0), 7.47, 0.01),
+    )
+    state = make_state(lin_vel=(0.0, 0.0, 0.2), ang_vel=(0.3, 0.0, 0.0))  # roll rate 0.3 (level trunk)
+    values = reward_terms(RewardConfig(terms, None, None), np.zeros(3), state, 0.0, False, False)
+    assert values["vz"] == pytest.approx(0.01 * (math.exp(-18.42 * 0.04) - 1.0))
+    assert values["rates"] == pytest.approx(0.01 * math.exp(-7.47 * 0.09))
+
+
+def test_stance_memory_measures_slip_and_drift_of_feet_on_the_ground():
+    from types import SimpleNamespace
+
+    from krl.task.reward import StanceMemory
+
+    def feet(dx, contact):
+        positions = np.zeros((4, 3))
+        positions[:, 0] = dx
+        return SimpleNamespace(foot_pos_world=positions, foot_contact=np.array(contact, dtype=bool))
+
+    memory = StanceMemory()
+    assert memory.update(feet([0, 0, 0, 0], [1, 1, 0, 0])) == {"stance_slip": 0.0, "stance_drift": 0.0}
+    step = memory.update(feet([0.001, 0.001, 0.002, 0], [1, 1, 1, 0]))  # foot 2 lands: not yet in stance
+    assert step["stance_slip"] == pytest.approx(0.002) and step["stance_drift"] == pytest.approx(0.002)
+    step = memory.update(feet([0.002, 0.001, 0.003, 0], [1, 1, 1, 0]))
+    assert step["stance_slip"] == pytest.approx(0.001 + 0.0 + 0.001)
+    assert step["stance_drift"] == pytest.approx(0.002 + 0.001 + 0.001)  # foot 2 from where it landed
+    memory.reset()
+    assert memory.update(feet([5, 5, 5, 5], [1, 1, 1, 1]))["stance_slip"] == 0.0
+    stance = RewardConfig((RBFTerm("slip", "stance_slip", (0.0,), 1.0, 1.0),), None, None)
+    assert stance.needs_stance and not EVALUATION_REWARD.needs_stance
+    with pytest.raises(RewardConfigError, match="StanceMemory"):
+        reward_terms(stance, np.zeros(3), make_state(), 0.0, False, False)
+
+
+def test_term_options_round_trip_and_are_written_only_when_set():
+    term = RBFTerm("v", "planar_velocity", "command", 10.0, 1.0, shortfall=True, penalty=True)
+    reward = RewardConfig((term,), -5.0, 5.0)
+    data = json.loads(json.dumps(reward.to_json()))
+    assert data["terms"][0]["shortfall"] is True and RewardConfig.from_json(data) == reward
+    assert all("shortfall" not in t and "penalty" not in t for t in INITIAL_REWARD.to_json()["terms"])
+    data["terms"][0]["penalty"] = "yes"
+    with pytest.raises(RewardConfigError, match="penalty must be true or false"):
+        RewardConfig.from_json(data)

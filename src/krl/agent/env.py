@@ -37,7 +37,7 @@ from krl.kernel.registry import resolve_model
 from krl.sim.batch import SimBatch, StateBatch
 from krl.sim.model import build_model
 from krl.sim.pushes import PushDistribution, PushSchedule
-from krl.task.reward import reward_terms
+from krl.task.reward import StanceMemory, reward_terms
 from krl.task.waypoints import TaskStatus, WaypointTask, random_targets
 from krl.util.timing import CONTROL_DT
 
@@ -71,6 +71,8 @@ class ResidualEnvBatch:
         self.features = config.observation.features
         self.observation_size = observation_size(self.features)
         self.reward = config.env.reward
+        self.stance = StanceMemory() if self.reward.needs_stance else None
+        """The stance feet's history, for a reward that measures it."""
         self.command_params = replace(CommandParams(), d_min=config.env.d_min)
         env = config.env
         self.pushes = PushDistribution(interval=env.push_interval, magnitude=env.push_magnitude)
@@ -146,6 +148,8 @@ class ResidualEnvBatch:
             self.episode_start[index] = time.perf_counter()
         self.controller.reset(rows)
         self.states = self.sims.states
+        if self.stance is not None:
+            self.stance.reset(rows)
         self._prepare(self.states.rows(rows), rows)
         return self._observe(rows)
 
@@ -186,7 +190,8 @@ class ResidualEnvBatch:
         distance = np.array([step.distance for step in steps])
         reached = np.array([step.reached for step in steps], dtype=bool)
         terminated = states.fallen.copy()
-        terms = reward_terms(self.reward, commands, states, distance, reached, terminated)
+        stance = None if self.stance is None else self.stance.update(states)
+        terms = reward_terms(self.reward, commands, states, distance, reached, terminated, stance)
         rewards = np.sum(list(terms.values()), axis=0)
         self.last_terms = terms
         self._prepare(states, np.arange(self.num_envs))  # the tasks move on past waypoints reached now

@@ -18,7 +18,7 @@ import numpy as np
 from krl.control.commands import CommandParams
 from krl.control.mpc import MPCError
 from krl.sim.robot import SimulationUnstableError
-from krl.task.reward import EVALUATION_REWARD, RewardConfig, reward_terms
+from krl.task.reward import EVALUATION_REWARD, RewardConfig, StanceMemory, reward_terms
 from krl.task.runner import Runner, StepRecord
 from krl.task.waypoints import TARGET_TIME_LIMIT, WaypointStep
 from krl.util.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
@@ -55,6 +55,7 @@ class EpisodeScorer:
     def __init__(self, targets: np.ndarray, reward: RewardConfig = EVALUATION_REWARD) -> None:
         self.targets = np.asarray(targets, dtype=float).reshape(-1, 2)
         self.reward = reward
+        self.stance = StanceMemory() if reward.needs_stance else None
         self.steps = 0
         self.targets_reached = 0
         self.fell = False
@@ -64,7 +65,10 @@ class EpisodeScorer:
 
     def __call__(self, record: StepRecord, step: WaypointStep) -> None:
         after = record.after
-        terms = reward_terms(self.reward, record.command, after, step.distance, step.reached, after.fallen)
+        stance = None if self.stance is None else self.stance.update(after)
+        terms = reward_terms(
+            self.reward, record.command, after, step.distance, step.reached, after.fallen, stance
+        )
         for name, value in terms.items():
             self.term_sums[name] = self.term_sums.get(name, 0.0) + value
         self.steps += 1

@@ -22,6 +22,19 @@ Quantities (:data:`QUANTITIES`) a term can measure:
 | ``gravity`` | gravity direction in the base frame | (0, 0, -1) |
 | ``target_distance`` | planar distance to the current waypoint [m] | 0 |
 | ``roll_pitch`` | (roll, pitch) [rad] | (0, 0) |
+| ``vertical_velocity`` | trunk vertical velocity, world [m/s] | 0 |
+| ``roll_pitch_rate`` | trunk roll and pitch rates, base frame [rad/s] | (0, 0) |
+| ``stance_slip`` | planar distance the stance feet moved since the last step, summed over the feet [m] | 0 |
+| ``stance_drift`` | planar distance of the stance feet from where they touched down, summed [m] | 0 |
+
+The two stance quantities need the feet's history: a caller whose reward uses them keeps a
+:class:`StanceMemory` and passes its :meth:`StanceMemory.update` to :func:`reward_terms`.
+
+Two options shape a term (Table 4.7's experiments): ``shortfall`` counts only the part of a velocity
+error that falls short of the command (moving faster than commanded costs nothing; a zero command
+constrains nothing: trial 4's "prevents losing reward for exceeding the velocity commands"), and
+``penalty`` makes the term ``weight * (exp(-q e²) - 1)``: zero at no error, down to ``-weight`` (the
+negative RBF of Fig. 4.16b).
 
 Named rewards (:data:`REWARDS`): ``initial`` (Table 4.6), ``base`` (Table 4.8: agent-base) and ``rp``
 (Table 4.8 plus the roll/pitch term: agent-rp and the evaluation tables). The reading of each ambiguity is
@@ -48,11 +61,21 @@ QUANTITIES: dict[str, int] = {
     "gravity": 3,
     "target_distance": 1,
     "roll_pitch": 2,
+    "vertical_velocity": 1,
+    "roll_pitch_rate": 2,
+    "stance_slip": 1,
+    "stance_drift": 1,
 }
 """Quantities a term can measure, with their sizes (the table in this module's docstring)."""
 
 _COMMAND_PART: dict[str, slice] = {"planar_velocity": slice(0, 2), "yaw_rate": slice(2, 3)}
 """The part of the (v_x, v_y, ω_z) command a ``command`` target reads, for the quantities that have one."""
+
+STANCE_QUANTITIES: tuple[str, ...] = ("stance_slip", "stance_drift")
+"""Quantities measured from the stance feet's history (:class:`StanceMemory`)."""
+
+TERM_OPTIONS: tuple[str, ...] = ("shortfall", "penalty")
+"""A term's optional switches, written in a config only when on."""
 
 NOMINAL_TERMS: tuple[str, ...] = ("fall", "target_reached")
 """The nominal terms' names, after the RBF terms in :func:`reward_terms`' output."""
@@ -81,6 +104,10 @@ class RBFTerm:
     """q: how fast the reward falls with the squared error [1/unit²]."""
     weight: float
     """ω: the term's value at zero error."""
+    shortfall: bool = False
+    """Count only the error's part that falls short of a ``command`` target (module docstring)."""
+    penalty: bool = False
+    """``weight * (exp(-q e²) - 1)`` instead of ``weight * exp(-q e²)`` (module docstring)."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name or self.name in NOMINAL_TERMS:
@@ -106,12 +133,16 @@ class RBFTerm:
         _finite(f"term {self.name!r}: weight", self.weight)
         if self.steepness < 0:
             raise RewardConfigError(f"term {self.name!r}: steepness must be >= 0, got {self.steepness}")
+        if self.shortfall and self.target != COMMAND_TARGET:
+            raise RewardConfigError(f"term {self.name!r}: shortfall needs the command as its target")
 
     def __call__(self, squared_error: float | np.ndarray) -> float | np.ndarray:
         """The term for one squared error (a float), or for an array of them (a batch of robots)."""
         if isinstance(squared_error, np.ndarray):
-            return self.weight * np.exp(-self.steepness * squared_error)
-        return self.weight * math.exp(-self.steepness * squared_error)
+            value = np.exp(-self.steepness * squared_error)
+        else:
+            value = math.exp(-self.steepness * squared_error)
+        return self.weight * (value - 1.0 if self.penalty else value)
 
 
 @dataclass(frozen=True)
@@ -141,8 +172,13 @@ class RewardConfig:
         nominal = (("fall", self.fall_penalty), ("target_reached", self.target_bonus))
         return (*(term.name for term in self.terms), *(name for name, value in nominal if value is not None))
 
+    @property
+    def needs_stance(self) -> bool:
+        """Whether a term measures the stance feet's history (:class:`StanceMemory`)."""
+        return any(term.quantity in STANCE_QUANTITIES for term in self.terms)
+
     def to_json(self) -> dict[str, Any]:
-        """The config as JSON data (:meth:`from_json` reads it back)."""
+        """The config as JSON data (:meth:`from_json` reads it back); a term's options only when set."""
         return {
             "terms": [
                 {
@@ -151,6 +187,7 @@ class RewardConfig:
                     "target": t.target if isinstance(t.target, str) else list(t.target),
                     "steepness": t.steepness,
                     "weight": t.weight,
+                    **{option: True for option in TERM_OPTIONS if getattr(t, option)},
                 }
                 for t in self.terms
             ],
@@ -185,7 +222,7 @@ class RewardConfig:
 def _term_from_json(data: Mapping[str, Any]) -> RBFTerm:
     fields = ("name", "quantity", "target", "steepness", "weight")
     missing = [name for name in fields if name not in data]
-    extra = sorted(set(data) - set(fields))
+    extra = sorted(set(data) - set(fields) - set(TERM_OPTIONS))
     if missing or extra:
         what = f"missing {missing[0]!r}" if missing else f"unknown setting {extra[0]!r}"
         raise RewardConfigError(
@@ -198,7 +235,14 @@ def _term_from_json(data: Mapping[str, Any]) -> RBFTerm:
         target=tuple(target) if isinstance(target, list) else target,
         steepness=data["steepness"],
         weight=data["weight"],
+        **{option: _flag(data, option) for option in TERM_OPTIONS if option in data},
     )
+
+
+def _flag(data: Mapping[str, Any], option: str) -> bool:
+    if not isinstance(data[option], bool):
+        raise RewardConfigError(f"reward term {data.get('name', '?')!r}: {option} must be true or false")
+    return data[option]
 
 
 def _table_4_8_terms(**weights: float) -> tuple[RBFTerm, ...]:
@@ -257,8 +301,9 @@ def reward_name(reward: RewardConfig) -> str | None:
 _DOWN = np.array([0.0, 0.0, -1.0])
 
 
-def _squared_errors(reward: RewardConfig, command: np.ndarray, state, distance) -> list:
-    """Each RBF term's squared error ``||target - measured||²``: floats, or arrays of shape (N,)."""
+def _squared_errors(reward: RewardConfig, command: np.ndarray, state, distance, stance) -> list:
+    """Each RBF term's squared error ``||target - measured||²`` (only the shortfall where the term says so):
+    floats, or arrays of shape (N,)."""
     realised = realised_velocity(state)
     measured = {
         "planar_velocity": realised[..., 0:2],
@@ -266,14 +311,25 @@ def _squared_errors(reward: RewardConfig, command: np.ndarray, state, distance) 
         "gravity": state.projected_gravity,
         "target_distance": np.asarray(distance, dtype=float)[..., None],
         "roll_pitch": state.rpy[..., 0:2],
+        "vertical_velocity": state.lin_vel_world[..., 2:3],
+        "roll_pitch_rate": state.ang_vel_base[..., 0:2],
     }
+    if stance is not None:
+        measured.update(
+            {name: np.asarray(stance[name], dtype=float)[..., None] for name in STANCE_QUANTITIES}
+        )
+    elif reward.needs_stance:
+        raise RewardConfigError("this reward measures the stance feet: pass a StanceMemory's update")
     errors = []
     for term in reward.terms:
         if term.target == COMMAND_TARGET:
             target = command[..., _COMMAND_PART[term.quantity]]
         else:
             target = np.asarray(term.target, dtype=float)
-        error = np.sum((target - measured[term.quantity]) ** 2, axis=-1)
+        difference = target - measured[term.quantity]
+        if term.shortfall:  # only falling short of a nonzero command counts
+            difference = np.maximum(np.sign(target) * difference, 0.0)
+        error = np.sum(difference**2, axis=-1)
         errors.append(float(error) if error.ndim == 0 else error)
     return errors
 
@@ -285,6 +341,7 @@ def reward_terms(
     target_distance: float | np.ndarray,
     reached: bool | np.ndarray,
     fell: bool | np.ndarray,
+    stance: Mapping[str, Any] | None = None,
 ) -> dict[str, float] | dict[str, np.ndarray]:
     """The named reward terms of one control step, for one robot or a batch of N.
 
@@ -297,13 +354,14 @@ def reward_terms(
             A float, or shape (N,).
         reached: the step brought the robot within D_min of its waypoint. A bool, or shape (N,).
         fell: the robot fell during the step. A bool, or shape (N,).
+        stance: the step's :meth:`StanceMemory.update` (needed only by a reward of stance terms).
 
     Returns:
         ``{term: value}`` in the order of ``reward.term_names``; the step's reward is the sum of the values.
         Floats for one robot, arrays of shape (N,) for a batch.
     """
     command = np.asarray(command, dtype=float)
-    errors = _squared_errors(reward, command, state, target_distance)
+    errors = _squared_errors(reward, command, state, target_distance, stance)
     terms = {term.name: term(error) for term, error in zip(reward.terms, errors, strict=True)}
     single = np.ndim(fell) == 0
     for name, value, event in (
@@ -313,3 +371,42 @@ def reward_terms(
         if value is not None:
             terms[name] = (value if event else 0.0) if single else np.where(event, value, 0.0)
     return terms
+
+
+class StanceMemory:
+    """Where each stance foot was on the last control step and where it touched down, for a batch of robots
+    (or one): what the ``stance_slip`` and ``stance_drift`` quantities measure. A foot is in stance on a
+    step when it touches the ground now and touched it on the step before."""
+
+    def __init__(self) -> None:
+        self.previous: np.ndarray | None = None
+        """Feet positions, world (x, y) [m], of the last step. Shape (..., 4, 2)."""
+        self.contact: np.ndarray | None = None
+        """Feet contacts of the last step. Shape (..., 4)."""
+        self.touchdown: np.ndarray | None = None
+        """Where each foot last touched down, world (x, y) [m]. Shape (..., 4, 2)."""
+
+    def update(self, state) -> dict[str, np.ndarray | float]:
+        """Record the step's feet (``state.foot_pos_world``, ``state.foot_contact``); returns this step's
+        ``stance_slip`` and ``stance_drift`` [m] (0 on a first step)."""
+        feet, contact = np.asarray(state.foot_pos_world)[..., :2], np.asarray(state.foot_contact, dtype=bool)
+        if self.previous is None:
+            self.previous, self.contact, self.touchdown = feet.copy(), contact.copy(), feet.copy()
+        stance = contact & self.contact
+        landed = contact & ~self.contact
+        self.touchdown = np.where(landed[..., None], feet, self.touchdown)
+        slip = np.sum(np.linalg.norm(feet - self.previous, axis=-1) * stance, axis=-1)
+        drift = np.sum(np.linalg.norm(feet - self.touchdown, axis=-1) * stance, axis=-1)
+        self.previous, self.contact = feet.copy(), contact.copy()
+        single = slip.ndim == 0
+        return {
+            "stance_slip": float(slip) if single else slip,
+            "stance_drift": float(drift) if single else drift,
+        }
+
+    def reset(self, rows: np.ndarray | None = None) -> None:
+        """Forget the history (of the robots ``rows`` of a batch): their next step is a first step."""
+        if rows is None or self.previous is None:
+            self.previous = self.contact = self.touchdown = None
+            return
+        self.contact[rows] = False  # no foot in stance on the next step: nothing slips, all touch down

@@ -20,6 +20,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from krl.task.reward import COMMAND_TARGET, INITIAL_REWARD, RBFTerm, RewardConfig
 from krl.util.thesis import THESIS_SEEDS
 
 Overrides = Mapping[str, Any]
@@ -184,6 +185,152 @@ def _state_variants() -> tuple[Variant, ...]:
     )
 
 
+# --- reward-features: Table 4.7 ----------------------------------------------------------------------
+
+NOMINAL_EXPERIMENT: float = 5.0
+"""Table 4.7's fall penalty (trials 5, 7) and target bonus (trials 6, 7)."""
+CONSTRAINT_STEEPNESS: dict[str, float] = {"vertical_velocity": 18.42, "roll_pitch_rate": 7.47}
+"""Trial 3's added terms (vertical velocity; roll and pitch rates; target 0): the thesis gives no q, we take
+the linear and the angular velocity terms' (Table 4.6); weight 0.01 as every initial term."""
+SLIP_STEEPNESS: float = 2.5e5
+"""q of the per-step stance slip terms (trials 8, 9) [1/m²] (ours: the thesis gives none): a reward of
+exp(-1) at 2 mm of summed slip in one 5 ms step (0.4 m/s of sliding), weight 0.01."""
+DRIFT_STEEPNESS: float = 1e4
+"""q of trial 10's stance drift since touch-down [1/m²] (ours): exp(-1) at 1 cm summed over the stance
+feet, weight 0.01."""
+
+
+def _initial(name: str) -> RBFTerm:
+    return next(term for term in INITIAL_REWARD.terms if term.name == name)
+
+
+def _trial_rewards() -> dict[str, tuple[str, RewardConfig]]:
+    """Table 4.7's rewards, by variant name: (what it changes, the reward)."""
+    initial = INITIAL_REWARD
+    without = lambda name: tuple(t for t in initial.terms if t.name != name)  # noqa: E731
+    constraints = tuple(
+        RBFTerm(quantity, quantity, (0.0,) * (1 if quantity == "vertical_velocity" else 2), q, 0.01)
+        for quantity, q in CONSTRAINT_STEEPNESS.items()
+    )
+    shortfall = tuple(
+        RBFTerm(t.name, t.quantity, t.target, t.steepness, t.weight, shortfall=t.target == COMMAND_TARGET)
+        for t in initial.terms
+    )
+    trial4 = RewardConfig(shortfall, fall_penalty=None, target_bonus=None)
+    trial7 = RewardConfig(shortfall, fall_penalty=-NOMINAL_EXPERIMENT, target_bonus=NOMINAL_EXPERIMENT)
+    slip = RBFTerm("stance_slip", "stance_slip", (0.0,), SLIP_STEEPNESS, 0.01)
+    return {
+        "initial": ("the initial reward (Table 4.6)", initial),
+        "t1-no-com": ("trial 1: without the CoM term", RewardConfig(without("gravity"), None, None)),
+        "t2-no-target": (
+            "trial 2: without the target distance term",
+            RewardConfig(without("target_distance"), None, None),
+        ),
+        "t3-constraints": (
+            "trial 3: + vertical, roll and pitch velocities at 0",
+            RewardConfig((*initial.terms, *constraints), None, None),
+        ),
+        "t4-shortfall": ("trial 4: no loss for exceeding the velocity commands", trial4),
+        "t5-fall": (
+            "trial 5: trial 4 + a fall penalty of 5",
+            RewardConfig(shortfall, -NOMINAL_EXPERIMENT, None),
+        ),
+        "t6-target": (
+            "trial 6: trial 4 + a target reward of 5",
+            RewardConfig(shortfall, None, NOMINAL_EXPERIMENT),
+        ),
+        "t7-both": ("trial 7: trial 4 + both", trial7),
+        "t8-slip-reward": (
+            "trial 8: trial 7 + a stance slip reward (t to t-1)",
+            RewardConfig((*shortfall, slip), -5.0, 5.0),
+        ),
+        "t9-slip-penalty": (
+            "trial 9: trial 7 + a stance slip penalty (t to t-1)",
+            RewardConfig(
+                (
+                    *shortfall,
+                    RBFTerm("stance_slip", "stance_slip", (0.0,), SLIP_STEEPNESS, 0.01, penalty=True),
+                ),
+                -5.0,
+                5.0,
+            ),
+        ),
+        "t10-drift-penalty": (
+            "trial 10: trial 7 + a penalty on the stance feet's drift since touch-down",
+            RewardConfig(
+                (
+                    *shortfall,
+                    RBFTerm("stance_drift", "stance_drift", (0.0,), DRIFT_STEEPNESS, 0.01, penalty=True),
+                ),
+                -5.0,
+                5.0,
+            ),
+        ),
+    }
+
+
+TRIAL_REWARDS: dict[str, tuple[str, RewardConfig]] = _trial_rewards()
+"""Table 4.7's eleven rewards: (what it changes, the reward), by variant name."""
+TRIAL_7_REWARD: RewardConfig = TRIAL_REWARDS["t7-both"][1]
+"""The reward the RBF and weight searches start from (4.2.8.2: "we continue with the reward function from
+trial 7")."""
+
+
+def _reward_variants() -> tuple[Variant, ...]:
+    return tuple(
+        Variant(name, description, {"env": {"reward": reward.to_json()}})
+        for name, (description, reward) in TRIAL_REWARDS.items()
+    )
+
+
+# --- reward-rbf and reward-weights: Table A.4 and the weight range --------------------------------------
+
+RBF_RANGES: dict[str, tuple[float, float]] = {
+    "linear_velocity": (15.0, 20.0),
+    "angular_velocity": (5.0, 10.0),
+    "gravity": (1.0, 4.0),
+    "target_distance": (1.0, 4.0),
+}
+"""Table A.4's four ranges of q, given to the terms whose initial q they hold (ours: as printed, the table's
+rows give the linear velocity [1, 4] and the CoM [15, 20], which hold neither the initial 18.42 nor 2.35;
+the target distance's 0.74 lies in none, so it takes the range left, [1, 4])."""
+WEIGHT_RANGE: tuple[float, float] = (0.001, 0.005)
+"""The weight search's range (4.2.8.2), for each of the four RBF terms (Table 4.8's final weights,
+0.0076-0.0298, lie outside it: the thesis does not say how; we search the range it states)."""
+
+
+def _reward_table(**changes: dict[str, float]) -> dict[str, Any]:
+    """Trial 7's reward with some terms' steepness or weight replaced, as a config table."""
+    terms = tuple(
+        RBFTerm(
+            t.name,
+            t.quantity,
+            t.target,
+            changes.get("steepness", {}).get(t.name, t.steepness),
+            changes.get("weight", {}).get(t.name, t.weight),
+            t.shortfall,
+            t.penalty,
+        )
+        for t in TRIAL_7_REWARD.terms
+    )
+    reward = RewardConfig(terms, TRIAL_7_REWARD.fall_penalty, TRIAL_7_REWARD.target_bonus)
+    return {"env": {"reward": reward.to_json()}}
+
+
+def rbf_space(trial) -> dict[str, Any]:
+    """One draw of Table A.4's steepness ranges (uniform)."""
+    return _reward_table(
+        steepness={name: trial.suggest_float(f"q_{name}", *r) for name, r in RBF_RANGES.items()}
+    )
+
+
+def weight_space(trial) -> dict[str, Any]:
+    """One draw of the four RBF weights in :data:`WEIGHT_RANGE` (uniform)."""
+    return _reward_table(
+        weight={name: trial.suggest_float(f"w_{name}", *WEIGHT_RANGE) for name in RBF_RANGES}
+    )
+
+
 STUDIES: dict[str, StudyDesign] = {
     "ppo-search": StudyDesign(
         name="ppo-search",
@@ -196,6 +343,33 @@ STUDIES: dict[str, StudyDesign] = {
         trials=100,
         top=5,
         confirm_budget=5_000_000,
+    ),
+    "reward-features": StudyDesign(
+        name="reward-features",
+        title="Table 4.7, Fig. 4.18",
+        base=_study_base((*CORE_FEATURES, *INITIAL_OPTIONAL)),
+        budget=3_000_000,
+        variants=_reward_variants(),
+    ),
+    "reward-rbf": StudyDesign(
+        name="reward-rbf",
+        title="Table A.4, Fig. 4.19a",
+        base=_study_base((*CORE_FEATURES, *INITIAL_OPTIONAL)),
+        budget=3_000_000,
+        space=rbf_space,
+        trials=100,
+        top=5,
+        confirm_budget=3_000_000,
+    ),
+    "reward-weights": StudyDesign(
+        name="reward-weights",
+        title="Fig. 4.19b",
+        base=_study_base((*CORE_FEATURES, *INITIAL_OPTIONAL)),
+        budget=3_000_000,
+        space=weight_space,
+        trials=100,
+        top=5,
+        confirm_budget=3_000_000,
     ),
     "state-space": StudyDesign(
         name="state-space",

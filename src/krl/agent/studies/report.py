@@ -31,6 +31,12 @@ from krl.util.output import csv_bytes, figure_bytes, write_atomic
 THESIS_FINDINGS: dict[str, str] = {
     "ppo-search": "100 random trials of 3e6 steps, the best 5 trained from 4 seeds for 5e6 steps (Fig. 4.17, "
     "curves only); trial 3 chosen: lr 1e-3, 10 epochs, batch 4000, entropy 5e-6, the small network.",
+    "reward-features": "Fig. 4.18 (curves only): without the CoM (trial 1) or the target distance (2) fewer "
+    "targets and successes; trial 4 more targets but fewer successes; the fall penalty and target reward "
+    "together (7) best; the slip penalties (9, 10) cut foot slip at a small cost in targets; trial 7 kept.",
+    "reward-rbf": "Fig. 4.19a (curves only): the search over the terms' q did not beat the initial ones.",
+    "reward-weights": "Fig. 4.19b (curves only): the best weights found became Table 4.8's (0.0076, 0.0264, "
+    "0.0298, 0.0169).",
     "state-space": "Fig. 4.20 (curves only): phases and contacts help; the residual helps more, and with it "
     "the phases no longer do; the best set is the residual and the foot contacts.",
 }
