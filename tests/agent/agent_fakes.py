@@ -1,14 +1,41 @@
-"""A policy of a config's shape with chosen weights, for the agent's tests."""
+"""Fakes for the agent's tests: a policy of a config's shape with chosen weights, the training log's columns,
+and the settings of tiny real trainings in an agent study."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from krl.agent.config import AgentConfig
+from krl.agent.curves import STEPS_COLUMN
 from krl.agent.observation import observation_size
 from krl.agent.policy import Policy
 from krl.kernel.registry import resolve_model
 from krl.util.hashing import file_sha256
+
+LOG_COLUMNS: tuple[str, ...] = (
+    STEPS_COLUMN,
+    "episode/reward",
+    "episode/targets_reached",
+    "episode/fall_rate",
+    "episode/success_rate",
+)
+"""Columns of a fake training log (``progress.csv``), in the order the fakes write them."""
+
+TINY_STUDY: dict = {
+    "ppo": {
+        "rollout_steps": 128,
+        "batch_size": 64,
+        "n_epochs": 1,
+        "shared": [16],
+        "actor": [16],
+        "critic": [8],
+    },
+    "num_envs": 2,
+    "checkpoint_every": 256,
+    "env": {"episode_time": 0.5},
+}
+"""Settings every trial of a tiny real agent study shares (``--config``): a tiny network, and half-second
+episodes so that some end within a few hundred steps."""
 
 
 def make_policy(config: AgentConfig, scale: float = 0.0, seed: int = 0) -> Policy:

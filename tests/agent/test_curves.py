@@ -7,17 +7,12 @@ import json
 import shutil
 
 import numpy as np
+from agent_fakes import LOG_COLUMNS
 
-from krl.agent.curves import STEPS_COLUMN, group_curve
+from krl.agent.curves import group_curve
 from krl.cli import main
 
-COLUMNS = (
-    STEPS_COLUMN,
-    "episode/reward",
-    "episode/targets_reached",
-    "episode/fall_rate",
-    "episode/success_rate",
-)
+COLUMNS = LOG_COLUMNS
 
 
 def fake_run(folder, steps, targets, success=None):

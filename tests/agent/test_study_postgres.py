@@ -16,23 +16,10 @@ import time
 import uuid
 
 import pytest
+from agent_fakes import TINY_STUDY
 
 URL = os.environ.get("KRL_TEST_POSTGRES_URL")
 pytestmark = pytest.mark.skipif(URL is None, reason="no PostgreSQL server (KRL_TEST_POSTGRES_URL unset)")
-
-TINY = {
-    "ppo": {
-        "rollout_steps": 128,
-        "batch_size": 64,
-        "n_epochs": 1,
-        "shared": [16],
-        "actor": [16],
-        "critic": [8],
-    },
-    "num_envs": 2,
-    "checkpoint_every": 256,
-    "env": {"episode_time": 0.5},
-}
 
 
 def study_argv(tmp_path, out: str, url: str) -> list[str]:
@@ -65,7 +52,7 @@ def test_two_processes_share_one_postgres_study_and_a_killed_ones_trial_is_retri
     with sqlalchemy.create_engine(URL, isolation_level="AUTOCOMMIT").connect() as connection:
         connection.execute(sqlalchemy.text(f"CREATE DATABASE {database}"))
     url = URL.rsplit("/", 1)[0] + "/" + database
-    (tmp_path / "tiny.json").write_text(json.dumps(TINY))
+    (tmp_path / "tiny.json").write_text(json.dumps(TINY_STUDY))
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "osmesa")}
     first = subprocess.Popen(study_argv(tmp_path, "a", url), env=env, stdout=subprocess.PIPE, text=True)
     second = subprocess.Popen(study_argv(tmp_path, "b", url), env=env, stdout=subprocess.PIPE, text=True)

@@ -70,6 +70,7 @@ def test_names_and_defaults():
         "heightfield_mild",
         "perlin",
         "sinusoid",
+        "slope",
         "stairs",
         "tabletop",
         "seesaw",

@@ -247,7 +247,10 @@ class AgentConfig:
                 raise AgentConfigError(f"{name} must be an integer >= 1, got {value!r}")
 
     def to_json(self) -> dict[str, Any]:
-        return json.loads(json.dumps(dataclasses.asdict(self)))
+        """The config as JSON data; the reward as :meth:`krl.task.reward.RewardConfig.to_json` writes it."""
+        data = json.loads(json.dumps(dataclasses.asdict(self)))
+        data["env"]["reward"] = self.env.reward.to_json()
+        return data
 
     @classmethod
     def from_json(cls, data: Any, source: str = "config") -> AgentConfig:

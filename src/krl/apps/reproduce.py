@@ -101,7 +101,7 @@ class Row:
         return Step(self.name, argv, _pick(self.minutes, quick), self.makes, config)
 
 
-COURSES: tuple[str, ...] = ("tabletop", "seesaw", "stairs", "sinusoid", "flat")
+COURSES: tuple[str, ...] = ("tabletop", "seesaw", "stairs", "sinusoid", "flat", "slope")
 """The courses pictured in ``docs/figures/courses``."""
 STANCES: tuple[str, ...] = ("0.3", "0.25", "0.2")
 """τ_stance of Table 4.3's datasets [s]."""
@@ -329,6 +329,15 @@ def _scoring_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
             ),
         ),
         Row("report", "Tables 5.1-5.5", 0.2, ("report --results {runs}/eval --out {docs}/results",)),
+        Row(
+            "level-base",
+            "Fig. 4.22",
+            ByMode(10, 4),
+            (
+                "agent study level-base --policy agent-base={runs}/agent-base@{seed}",
+                "--policy agent-rp={runs}/agent-rp@{seed} --report-out {docs}/results/agent",
+            ),
+        ),
         Row(
             "agent-curves",
             "training curves, Fig. 4.23",

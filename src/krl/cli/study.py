@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import multiprocessing
+import sys
 from pathlib import Path
 
 from krl.cli.common import CliError, emit, parse_ints
@@ -51,14 +52,41 @@ def _work(name: str, settings, out: str, url: str, heartbeat: float, quiet: bool
     work(STUDIES[name], settings, Path(out), url, heartbeat, log=(lambda _: None) if quiet else print)
 
 
+LEVEL_POLICIES: tuple[str, ...] = ("agent-base=base", "agent-rp=rp@150")
+"""The policies ``level-base`` compares unless ``--policy`` is given: the shipped agent-base and seed 150 of
+the shipped agent-rp."""
+
+
+def run_level_base(args: argparse.Namespace) -> int:
+    """``krl agent study level-base``: Fig. 4.22 from trained policies (no training, no storage)."""
+    import shlex
+
+    from krl.agent.policy import one_policy
+    from krl.analysis.agent.level import LEVEL_COURSES, level_runs, write_level_report
+    from krl.eval.courses import load_course
+
+    policies = {}
+    for text in args.policy or LEVEL_POLICIES:
+        label, _, spec = text.rpartition("=")
+        name, path = one_policy(spec)
+        policies[label or name] = path
+    runs = level_runs(policies, [load_course(name) for name in LEVEL_COURSES])
+    out = Path(args.report_out or args.out or "runs/agent-studies/level-base")
+    command = "krl " + shlex.join(sys.argv[1:])
+    emit({"written": write_level_report(runs, out, command)}, args.json)
+    return 0
+
+
 def run_study(args: argparse.Namespace) -> int:
     from krl.agent.studies.designs import STUDIES
     from krl.agent.studies.report import study_status, write_study_report
     from krl.agent.studies.runner import StudyError
     from krl.util.parallel import usable_cores
 
+    if args.name == "level-base":
+        return run_level_base(args)
     if args.name not in STUDIES:
-        raise CliError(f"unknown study {args.name!r}; known: {', '.join(STUDIES)}")
+        raise CliError(f"unknown study {args.name!r}; known: {', '.join([*STUDIES, 'level-base'])}")
     design = STUDIES[args.name]
     settings = _settings(args, design)
     out = Path(args.out or f"runs/agent-studies/{design.name}")
@@ -124,6 +152,11 @@ def register(group) -> None:
         help="seconds between a running trial's heartbeats; a trial silent for 3 is retried (default 60)",
     )
     p.add_argument("--report", action="store_true", help="write the tables and figures of what has finished")
+    p.add_argument(
+        "--policy",
+        action="append",
+        help="level-base only: LABEL=POLICY to compare (default agent-base=base, agent-rp=rp@150)",
+    )
     p.add_argument("--report-out", help="where --report writes (default OUT/report)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--json", action="store_true", help="print JSON")

@@ -23,7 +23,7 @@ import numpy as np
 COURSE_FORMAT = 1
 """Version of the course file format."""
 
-SHIPPED_COURSES: tuple[str, ...] = ("flat", "sinusoid", "stairs", "tabletop", "seesaw")
+SHIPPED_COURSES: tuple[str, ...] = ("flat", "sinusoid", "stairs", "tabletop", "seesaw", "slope")
 """Courses shipped with krl."""
 
 THESIS_COURSES: tuple[str, ...] = ("tabletop", "seesaw", "stairs", "sinusoid")

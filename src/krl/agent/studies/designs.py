@@ -7,10 +7,10 @@ then the best few trained again from every seed: Table A.3's PPO settings). Ever
 the variant's or the drawn trial's overrides (nested JSON tables, as a ``--config`` file holds).
 
 The base of every study is the thesis's optimisation set-up (4.2.1, Fig. 4.2b): the kernel-base agent on
-"a moderately difficult height-field terrain with perturbations 0.35cm". We read that literally, as a height
-field whose perturbation h is 0.35 cm (blocks of height U(0, 3.5 mm)): the final agent's terrain is said to
-have "more significant perturbations" (3-4.5 cm), which 0.35 cm is and 3.5 cm would not be. No Perlin
-hills and no pushes: the thesis adds both only for the final agent (4.2.9). The budgets and the seeds are
+"a moderately difficult height-field terrain with perturbations 0.35cm", krl's ``heightfield_mild`` (h = 2
+cm: 3.5 mm is nearly flat for a 2 cm foot and 3.5 cm no milder than the final agent's 3-4.5 cm, the reading
+docs/terrains.md gives). No Perlin hills and no pushes: the thesis adds both only for the final agent
+(4.2.9). The budgets and the seeds are
 the thesis's; ``krl agent study --budget/--seeds/--trials`` cut them down (docs/studies.md).
 """
 
@@ -20,6 +20,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from krl.sim.terrains import HEIGHTFIELD_MILD_MAX_HEIGHT
 from krl.task.reward import COMMAND_TARGET, INITIAL_REWARD, RBFTerm, RewardConfig
 from krl.util.thesis import THESIS_SEEDS
 
@@ -28,10 +29,11 @@ Overrides = Mapping[str, Any]
 
 OPTIMISATION_TERRAIN: dict[str, Any] = {
     "heightfield_probability": 1.0,
-    "heightfield_max_height": [0.0035, 0.0035],
+    "heightfield_max_height": [HEIGHTFIELD_MILD_MAX_HEIGHT, HEIGHTFIELD_MILD_MAX_HEIGHT],
     "pushes": False,
 }
-"""The environment of the studies (module docstring): a height field of 0.35 cm, no hills, no pushes."""
+"""The environment of the studies (module docstring): ``heightfield_mild``'s height field, no hills, no
+pushes."""
 
 CORE_FEATURES: tuple[str, ...] = (
     "base_lin_vel",

@@ -33,12 +33,14 @@ from krl.sim.terrains.grid import MAX_HFIELD_SIDE, HeightGrid
 from krl.sim.terrains.heightfields import sinusoid_amplitude
 from krl.sim.terrains.params import (
     HEIGHTFIELD_MAX_HEIGHT_RANGE,
+    HEIGHTFIELD_MILD_MAX_HEIGHT,
     TERRAIN_NAMES,
     FlatParams,
     HeightfieldParams,
     PerlinParams,
     SeesawParams,
     SinusoidParams,
+    SlopeParams,
     StairsParams,
     TabletopParams,
     TerrainError,
@@ -48,6 +50,7 @@ from krl.sim.terrains.terrain import Terrain
 
 __all__ = [
     "HEIGHTFIELD_MAX_HEIGHT_RANGE",
+    "HEIGHTFIELD_MILD_MAX_HEIGHT",
     "MAX_HFIELD_SIDE",
     "TERRAIN_FRICTION",
     "TERRAIN_NAMES",
@@ -57,6 +60,7 @@ __all__ = [
     "PerlinParams",
     "SeesawParams",
     "SinusoidParams",
+    "SlopeParams",
     "StairsParams",
     "TabletopParams",
     "Terrain",

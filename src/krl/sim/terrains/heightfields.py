@@ -17,10 +17,16 @@ import numpy as np
 
 from krl.sim.terrains.geoms import add_floor, add_geom
 from krl.sim.terrains.grid import HeightGrid, grid_axis, triangle_gradients
-from krl.sim.terrains.params import HeightfieldParams, PerlinParams, SinusoidParams, sinusoid_half_size
+from krl.sim.terrains.params import (
+    HeightfieldParams,
+    PerlinParams,
+    SinusoidParams,
+    SlopeParams,
+    sinusoid_half_size,
+)
 from krl.sim.terrains.terrain import Terrain
 
-__all__ = ["build_heightfield", "build_perlin", "build_sinusoid", "sinusoid_amplitude"]
+__all__ = ["build_heightfield", "build_perlin", "build_sinusoid", "build_slope", "sinusoid_amplitude"]
 
 _FLOOR_BELOW_HFIELD: float = 0.001
 """The floor plane of height-field terrains lies this far below the field's lowest vertex [m], so the two
@@ -192,5 +198,26 @@ def build_sinusoid(spec: mujoco.MjSpec, name: str, p: SinusoidParams, rng: np.ra
     landmarks = dict(terrain.landmarks)
     landmarks.update(
         {"crest": (p.wavelength / 4, p.wavelength / 4), "trough": (-p.wavelength / 4, p.wavelength / 4)}
+    )
+    return dataclasses.replace(terrain, landmarks=landmarks)
+
+
+def build_slope(spec: mujoco.MjSpec, name: str, p: SlopeParams, rng: np.random.Generator) -> Terrain:
+    """Add the slope (no random draws): z rises at tan(incline) from ``start_x`` for ``run`` metres, stays
+    level for ``plateau`` metres and falls back as steeply, the same at every y; landmarks ``ramp_up``,
+    ``plateau`` and ``ramp_down`` (the middle of each, (x, y) [m])."""
+    axis = grid_axis(p.half_size, p.cell)
+    rise = math.tan(p.incline)
+    top = p.start_x + p.run + p.plateau
+    profile = rise * np.clip(np.minimum(axis - p.start_x, top + p.run - axis), 0.0, p.run)
+    heights = np.tile(profile, (len(axis), 1))  # rows: y, columns: x
+    terrain = _grid_terrain(spec, name, p, axis, heights)
+    landmarks = dict(terrain.landmarks)
+    landmarks.update(
+        {
+            "ramp_up": (p.start_x + p.run / 2, 0.0),
+            "plateau": (p.start_x + p.run + p.plateau / 2, 0.0),
+            "ramp_down": (top + p.run / 2, 0.0),
+        }
     )
     return dataclasses.replace(terrain, landmarks=landmarks)

@@ -19,12 +19,14 @@ from krl.sim.terrains.grid import MAX_HFIELD_SIDE, grid_count
 
 __all__ = [
     "HEIGHTFIELD_MAX_HEIGHT_RANGE",
+    "HEIGHTFIELD_MILD_MAX_HEIGHT",
     "TERRAIN_NAMES",
     "FlatParams",
     "HeightfieldParams",
     "PerlinParams",
     "SeesawParams",
     "SinusoidParams",
+    "SlopeParams",
     "StairsParams",
     "TabletopParams",
     "TerrainError",
@@ -38,6 +40,7 @@ TERRAIN_NAMES: tuple[str, ...] = (
     "heightfield_mild",
     "perlin",
     "sinusoid",
+    "slope",
     "stairs",
     "tabletop",
     "seesaw",
@@ -48,6 +51,12 @@ HEIGHTFIELD_MAX_HEIGHT_RANGE: tuple[float, float] = (0.03, 0.045)
 """(low, high) of the draw h ~ U(low, high) [m] of the random height field's perturbation bound (its blocks
 are U(0, h) high): thesis 4.2.9, U(3, 4.5) cm. The defaults of ``HeightfieldParams.max_height_low`` and
 ``max_height_high``."""
+
+
+HEIGHTFIELD_MILD_MAX_HEIGHT: float = 0.02
+"""The perturbation bound h [m] of ``heightfield_mild``, our reading of the thesis's optimisation terrain
+(4.2.1, Fig. 4.2b: "a moderately difficult height-field terrain with perturbations 0.35cm"; see
+docs/terrains.md)."""
 
 
 class TerrainError(ValueError):
@@ -153,6 +162,31 @@ class SinusoidParams:
     def _problem(self) -> str | None:
         half = sinusoid_half_size(self.half_size, self.wavelength)
         return _grid_problem(half, self.cell)
+
+
+@dataclass(frozen=True)
+class SlopeParams:
+    """A ramp up along +x, a plateau and a ramp down, as a height field: the slopes of Fig. 4.22."""
+
+    incline: float = _p(0.15, gt=0.0, lt=0.6)
+    """Angle of both ramps [rad] (ours: between the sinusoid's steepest 0.2 and the table-top's 0.087)."""
+    run: float = _p(3.0, gt=0.0, le=20.0)
+    """Horizontal length of each ramp [m]."""
+    plateau: float = _p(2.0, ge=0.0, le=20.0)
+    """Length of the level top [m]."""
+    start_x: float = _p(1.0, ge=0.0, le=20.0)
+    """Where the ramp up starts [m]."""
+    cell: float = _p(0.05, gt=0.0, le=1.0)
+    """Vertex spacing of the height field [m]."""
+    half_size: float = _p(12.0, gt=0.0, le=100.0)
+    """Half extent of the field [m]."""
+
+    def _problem(self) -> str | None:
+        if self.start_x + 2 * self.run + self.plateau > self.half_size:
+            return (
+                "the ramps and the plateau must end inside the field (start_x + 2 run + plateau <= half_size)"
+            )
+        return _grid_problem(self.half_size, self.cell)
 
 
 @dataclass(frozen=True)

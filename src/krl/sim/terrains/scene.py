@@ -15,14 +15,16 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from krl.sim.terrains.heightfields import build_heightfield, build_perlin, build_sinusoid
+from krl.sim.terrains.heightfields import build_heightfield, build_perlin, build_sinusoid, build_slope
 from krl.sim.terrains.params import (
+    HEIGHTFIELD_MILD_MAX_HEIGHT,
     TERRAIN_NAMES,
     FlatParams,
     HeightfieldParams,
     PerlinParams,
     SeesawParams,
     SinusoidParams,
+    SlopeParams,
     StairsParams,
     TabletopParams,
     TerrainError,
@@ -82,9 +84,14 @@ def _registry(name: str) -> tuple[type, dict[str, Any], Callable[..., Terrain]]:
     table: dict[str, tuple[type, dict[str, Any], Callable[..., Terrain]]] = {
         "flat": (FlatParams, {}, build_flat),
         "heightfield": (HeightfieldParams, {}, build_heightfield),
-        "heightfield_mild": (HeightfieldParams, {"max_height": 0.02}, build_heightfield),
+        "heightfield_mild": (
+            HeightfieldParams,
+            {"max_height": HEIGHTFIELD_MILD_MAX_HEIGHT},
+            build_heightfield,
+        ),
         "perlin": (PerlinParams, {}, build_perlin),
         "sinusoid": (SinusoidParams, {}, build_sinusoid),
+        "slope": (SlopeParams, {}, build_slope),
         "stairs": (StairsParams, {}, build_stairs),
         "tabletop": (TabletopParams, {}, build_tabletop),
         "seesaw": (SeesawParams, {}, build_seesaw),

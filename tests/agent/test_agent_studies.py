@@ -11,8 +11,8 @@ from types import SimpleNamespace
 
 import optuna
 import pytest
+from agent_fakes import LOG_COLUMNS, TINY_STUDY
 
-from krl.agent.curves import STEPS_COLUMN
 from krl.agent.studies import designs, runner
 from krl.agent.studies.designs import STUDIES, StudyDesign, Variant
 from krl.agent.studies.report import replay_pruning, write_study_report
@@ -20,13 +20,7 @@ from krl.agent.studies.runner import CONFIRM, LIST, SEARCH, StudySettings, open_
 from krl.cli import main
 from krl.task.reward import reward_name
 
-COLUMNS = (
-    STEPS_COLUMN,
-    "episode/reward",
-    "episode/targets_reached",
-    "episode/fall_rate",
-    "episode/success_rate",
-)
+COLUMNS = LOG_COLUMNS
 
 
 def fake_train(calls: list):
@@ -119,7 +113,7 @@ def test_the_ppo_search_space_is_table_a3():
         "batch_size": 4000,
     }
     config = runner.trial_config(ppo, StudySettings.of(ppo), {"ppo": drawn}, 3_000_000)
-    assert config.env.heightfield_max_height == (0.0035, 0.0035) and not config.env.pushes
+    assert config.env.heightfield_max_height == (0.02, 0.02) and not config.env.pushes  # heightfield_mild
     assert config.env.heightfield_probability == 1.0 and reward_name(config.env.reward) == "initial"
     assert config.observation.features[-2:] == ("phase", "foot_contact") and config.ppo.actor == (128,)
 
@@ -248,16 +242,7 @@ def test_krl_agent_study_refuses_bad_input_in_one_line(tmp_path, capsys):
 
 def test_a_tiny_study_trains_for_real(tmp_path, capsys):
     tiny = tmp_path / "tiny.json"
-    ppo = {
-        "rollout_steps": 128,
-        "batch_size": 64,
-        "n_epochs": 1,
-        "shared": [16],
-        "actor": [16],
-        "critic": [8],
-    }
-    shared = {"ppo": ppo, "num_envs": 2, "checkpoint_every": 256, "env": {"episode_time": 0.5}}
-    tiny.write_text(json.dumps(shared))
+    tiny.write_text(json.dumps(TINY_STUDY))
     argv = ["agent", "study", "ppo-search", "--out", str(tmp_path / "s"), "--trials", "1", "--top", "1"]
     argv += ["--seeds", "7", "--budget", "256", "--confirm-budget", "256", "--config", str(tiny)]
     argv += ["--workers", "1", "--jobs", "1", "--quiet", "--json"]
