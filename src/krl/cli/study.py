@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import multiprocessing
+import shlex
 import sys
 from pathlib import Path
 
@@ -59,8 +60,6 @@ the shipped agent-rp."""
 
 def run_level_base(args: argparse.Namespace) -> int:
     """``krl agent study level-base``: Fig. 4.22 from trained policies (no training, no storage)."""
-    import shlex
-
     from krl.agent.policy import one_policy
     from krl.analysis.agent.level import LEVEL_COURSES, level_runs, write_level_report
     from krl.eval.courses import load_course
@@ -94,7 +93,10 @@ def run_study(args: argparse.Namespace) -> int:
     jobs = args.jobs or max(1, usable_cores() // max(1, settings.workers))
     try:
         if args.report:
-            written = write_study_report(design, settings, url, Path(args.report_out or out / "report"))
+            command = "krl " + shlex.join(sys.argv[1:])
+            written = write_study_report(
+                design, settings, url, Path(args.report_out or out / "report"), command
+            )
             emit(written, args.json)
             return 0
         out.mkdir(parents=True, exist_ok=True)

@@ -116,8 +116,11 @@ def storage(url: str, heartbeat: float = 60.0):
     retries (enqueues again) those that stopped beating for three beats."""
     from optuna.storages import RDBStorage, RetryHeartbeatStaleTrialCallback
 
+    # SQLite lets one writer in at a time: wait for the lock (--jobs on one machine) rather than fail
+    engine = {"connect_args": {"timeout": 120}} if url.startswith("sqlite") else None
     return RDBStorage(
         url,
+        engine_kwargs=engine,
         heartbeat_interval=max(1, round(heartbeat)),
         grace_period=max(3, round(3 * heartbeat)),
         heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(max_retry=3),
