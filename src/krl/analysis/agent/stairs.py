@@ -17,6 +17,7 @@ the two measures of command following against the swing on the landing.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -59,17 +60,21 @@ def _smooth(values: np.ndarray) -> np.ndarray:
 
 def command_following(trace: dict[str, np.ndarray]) -> dict[str, float]:
     """Forward-speed error (realised - commanded, heading frame) [m/s] and the yaw-rate gain (mean |realised|
-    over mean |commanded|) over :data:`TRACKING_WINDOW` of a trace."""
+    over mean |commanded|) over :data:`TRACKING_WINDOW` of a trace; NaN where the run ended before the window
+    (both) or no yaw rate was commanded in it (the gain)."""
     yaw = np.unwrap(trace["rpy"][:, 2])
     velocity = np.gradient(trace["base_pos"][:, :2], CONTROL_DT, axis=0)
     forward = _smooth(np.cos(yaw) * velocity[:, 0] + np.sin(yaw) * velocity[:, 1])
     yaw_rate = _smooth(np.gradient(yaw, CONTROL_DT))
     low, high = (round(t / CONTROL_DT) for t in TRACKING_WINDOW)
     window = slice(low, min(high, len(yaw)))
+    if window.start >= window.stop:
+        return {"forward_speed_error": math.nan, "yaw_rate_gain": math.nan}
     command = trace["command"][window]
+    commanded = float(np.mean(np.abs(command[:, 2])))
     return {
         "forward_speed_error": float(np.mean(forward[window] - command[:, 0])),
-        "yaw_rate_gain": float(np.mean(np.abs(yaw_rate[window])) / np.mean(np.abs(command[:, 2]))),
+        "yaw_rate_gain": float(np.mean(np.abs(yaw_rate[window]))) / commanded if commanded > 0 else math.nan,
     }
 
 
