@@ -50,7 +50,8 @@ def _work(name: str, settings, out: str, url: str, heartbeat: float, quiet: bool
     from krl.agent.studies.designs import STUDIES
     from krl.agent.studies.runner import work
 
-    work(STUDIES[name], settings, Path(out), url, heartbeat, log=(lambda _: None) if quiet else print)
+    log = (lambda _: None) if quiet else print
+    work(STUDIES[name], settings, Path(out), url, heartbeat, log=log, progress=not quiet)
 
 
 LEVEL_POLICIES: tuple[str, ...] = ("agent-base=base", "agent-rp=rp@150")

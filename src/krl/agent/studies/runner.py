@@ -289,9 +289,11 @@ def run_trial(
     out: Path,
     candidates: dict[int, dict[str, Any]] | None = None,
     log: Callable[[str], None] = print,
+    progress: bool = False,
 ) -> float:
-    """Train one trial (Optuna objective) and return its final targets reached; raises
-    :class:`SurplusTrial` for a trial that must not train, ``optuna.TrialPruned`` for a pruned one."""
+    """Train one trial (Optuna objective; ``progress``: the training's progress bar) and return its final
+    targets reached; raises :class:`SurplusTrial` for a trial that must not train, ``optuna.TrialPruned``
+    for a pruned one."""
     import optuna
 
     from krl.agent.train import train
@@ -322,7 +324,7 @@ def run_trial(
             folder,
             trial_config(design, settings, overrides, budget),
             seed,
-            progress=False,
+            progress=progress,
             log=log,
             workers=settings.workers,
             num_envs=settings.num_envs,
@@ -376,7 +378,7 @@ def _states(study, *states) -> list:
     return [t for t in study.get_trials(deepcopy=False, states=states) if not t.user_attrs.get("surplus")]
 
 
-def _run_queue(study, objective, wait: float, log) -> None:
+def _run_queue(study, objective, wait: float) -> None:
     """Run the study's waiting trials one at a time until none is waiting and none runs elsewhere (a
     running one may still go stale and come back as a waiting retry)."""
     from optuna.storages import fail_stale_trials
@@ -424,25 +426,27 @@ def work(
     url: str,
     heartbeat: float = 60.0,
     log: Callable[[str], None] = print,
+    progress: bool = False,
 ) -> None:
     """Run the study's trials in this process until none is left to start or running anywhere (module
-    docstring); any number of processes may run it at once on one storage."""
+    docstring); any number of processes may run it at once on one storage. ``log`` gets a line per trial,
+    ``progress`` shows each training's progress bar."""
     out.mkdir(parents=True, exist_ok=True)
+
+    def objective(stage: str, candidates: dict[int, dict[str, Any]] | None = None):
+        return lambda trial: run_trial(trial, design, settings, stage, out, candidates, log, progress)
+
     if design.is_search:
         study = open_stage(design, settings, SEARCH, url, heartbeat)
-        _run_search(
-            study, lambda t: run_trial(t, design, settings, SEARCH, out, log=log), settings, heartbeat
-        )
+        _run_search(study, objective(SEARCH), settings, heartbeat)
         best = best_trials(study, settings.top)
         if not best:
             return
         confirm = open_stage(design, settings, CONFIRM, url, heartbeat)
-        candidates = {t.number: t.user_attrs["overrides"] for t in best}
         enqueue(confirm, plan_entries(design, settings, CONFIRM, best))
-        _run_queue(
-            confirm, lambda t: run_trial(t, design, settings, CONFIRM, out, candidates, log), heartbeat, log
-        )
+        candidates = {t.number: t.user_attrs["overrides"] for t in best}
+        _run_queue(confirm, objective(CONFIRM, candidates), heartbeat)
     else:
         study = open_stage(design, settings, LIST, url, heartbeat)
         enqueue(study, plan_entries(design, settings, LIST))
-        _run_queue(study, lambda t: run_trial(t, design, settings, LIST, out, log=log), heartbeat, log)
+        _run_queue(study, objective(LIST), heartbeat)
