@@ -172,6 +172,22 @@ def push_direction_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> li
     ]
 
 
+def _controller_table(
+    rows: list[dict[str, Any]], key: str, columns: Sequence[Any], headers: Sequence[str], cell
+) -> list[str]:
+    """Markdown table lines: one row per controller (in ``rows``' order), one column per value of
+    ``row[key]`` in ``columns`` (headed ``headers``) holding ``cell(row)``, or "–" where it has no row."""
+    lines = [
+        "| controller | " + " | ".join(headers) + " |",
+        "| --- | " + " | ".join("---" for _ in columns) + " |",
+    ]
+    for controller in dict.fromkeys(r["controller"] for r in rows):
+        mine = {r[key]: r for r in rows if r["controller"] == controller}
+        cells = [cell(mine[column]) if column in mine else "–" for column in columns]
+        lines.append(f"| {controller} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def _push_direction_markdown(rows: list[dict[str, Any]]) -> str:
     lines = [
         "### Push success by direction (all magnitudes)",
@@ -179,19 +195,16 @@ def _push_direction_markdown(rows: list[dict[str, Any]]) -> str:
         "The force's horizontal direction relative to the walk (origin to target), in quarters of 90°; "
         "success rate (attempts) and 95 % Wilson interval.",
         "",
-        "| controller | " + " | ".join(PUSH_DIRECTIONS) + " |",
-        "| --- | " + " | ".join("---" for _ in PUSH_DIRECTIONS) + " |",
+        *_controller_table(
+            rows,
+            "direction",
+            PUSH_DIRECTIONS,
+            PUSH_DIRECTIONS,
+            lambda r: (
+                f"{r['success_rate']:.2f} ({r['attempts']}), {r['success_low']:.2f}-{r['success_high']:.2f}"
+            ),
+        ),
     ]
-    for controller in dict.fromkeys(r["controller"] for r in rows):
-        mine = {r["direction"]: r for r in rows if r["controller"] == controller}
-        cells = [
-            f"{mine[d]['success_rate']:.2f} ({mine[d]['attempts']}), "
-            f"{mine[d]['success_low']:.2f}-{mine[d]['success_high']:.2f}"
-            if d in mine
-            else "–"
-            for d in PUSH_DIRECTIONS
-        ]
-        lines.append(f"| {controller} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -237,22 +250,17 @@ def seed_rows(found: dict[str, dict[str, list[dict[str, Any]]]], course: str) ->
 def _seed_markdown(rows: list[dict[str, Any]]) -> str:
     """Each seed group's runs by training seed: successes of runs, falls, mean waypoints reached."""
     seeds = sorted({row["seed"] for row in rows})
+
+    def cell(r: dict[str, Any]) -> str:
+        runs = r["runs"]
+        successes, falls = round(r["success_rate"] * runs), round(r["fall_rate"] * runs)
+        return f"{successes}/{runs}, {falls} fell, {r['targets_reached_mean']:.2f}"
+
     lines = [
         "By training seed (successes of runs, falls, mean waypoints reached):",
         "",
-        "| controller | " + " | ".join(f"seed {seed}" for seed in seeds) + " |",
-        "| --- | " + " | ".join("---" for _ in seeds) + " |",
+        *_controller_table(rows, "seed", seeds, [f"seed {seed}" for seed in seeds], cell),
     ]
-    for controller in dict.fromkeys(row["controller"] for row in rows):
-        mine = {row["seed"]: row for row in rows if row["controller"] == controller}
-        cells = [
-            f"{round(mine[s]['success_rate'] * mine[s]['runs'])}/{mine[s]['runs']}, "
-            f"{round(mine[s]['fall_rate'] * mine[s]['runs'])} fell, {mine[s]['targets_reached_mean']:.2f}"
-            if s in mine
-            else "–"
-            for s in seeds
-        ]
-        lines.append(f"| {controller} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
