@@ -125,21 +125,24 @@ class EnvConfig:
             raise AgentConfigError(f"reward must be a reward configuration, got {self.reward!r}")
 
 
+CORE_FEATURES: tuple[str, ...] = (
+    "base_lin_vel",
+    "base_ang_vel",
+    "command",
+    "joint_pos",
+    "joint_vel",
+    "gravity",
+    "roll_pitch",
+)
+"""The observation's core attributes, in every agent and study (4.2.8: v, a of the base and the command, q,
+q̇, CoM, pitch, roll)."""
+
+
 @dataclass(frozen=True)
 class ObservationConfig:
     """Which features the policy observes (:mod:`krl.agent.observation` documents each)."""
 
-    features: tuple[str, ...] = (
-        "base_lin_vel",
-        "base_ang_vel",
-        "command",
-        "joint_pos",
-        "joint_vel",
-        "gravity",
-        "roll_pitch",
-        "residual",
-        "foot_contact",
-    )
+    features: tuple[str, ...] = (*CORE_FEATURES, "residual", "foot_contact")
     """Feature names in order: the thesis's final set (4.2.8.3): the core attributes, the previous
     filtered residual and the foot contacts. Optional: ``phase``, ``kernel_targets``, ``contact_force``."""
 
