@@ -138,9 +138,18 @@ def replay_pruning(trials: Sequence[Any], pruner) -> dict[str, Any]:
     return {"env_steps_unpruned": full, "env_steps_pruned": used, "kept": kept}
 
 
-def study_status(design: StudyDesign, settings: StudySettings, url: str) -> dict[str, Any]:
+def open_stages(design: StudyDesign, settings: StudySettings, url: str) -> dict[str, Any]:
+    """The study's Optuna studies by stage (a search's and its confirming runs', or a list study's)."""
+    stages = (SEARCH, CONFIRM) if design.is_search else (LIST,)
+    return {stage: open_stage(design, settings, stage, url) for stage in stages}
+
+
+def study_status(
+    design: StudyDesign, settings: StudySettings, url: str, stages: dict[str, Any] | None = None
+) -> dict[str, Any]:
     """How far the study is: per stage, trials finished (complete, pruned), failed with an error, and
-    the planned entries (or search trials) still missing."""
+    the planned entries (or search trials) still missing. ``stages``: :func:`open_stages`' (opened here
+    when not given)."""
     from optuna.trial import TrialState
 
     def counts(study, planned: int) -> dict[str, int]:
@@ -155,18 +164,14 @@ def study_status(design: StudyDesign, settings: StudySettings, url: str) -> dict
             "missing": max(0, planned - len(done)),
         }
 
+    stages = stages or open_stages(design, settings, url)
     if not design.is_search:
-        study = open_stage(design, settings, LIST, url)
-        return {
-            "study": design.name,
-            "storage": url,
-            LIST: counts(study, len(plan_entries(design, settings, LIST))),
-        }
-    search = open_stage(design, settings, SEARCH, url)
+        planned = len(plan_entries(design, settings, LIST))
+        return {"study": design.name, "storage": url, LIST: counts(stages[LIST], planned)}
+    search = stages[SEARCH]
     status = {"study": design.name, "storage": url, SEARCH: counts(search, settings.trials)}
     best = best_trials(search, settings.top)
-    confirm = open_stage(design, settings, CONFIRM, url)
-    status[CONFIRM] = counts(confirm, settings.top * len(settings.seeds))
+    status[CONFIRM] = counts(stages[CONFIRM], settings.top * len(settings.seeds))
     status["best"] = [{"trial": t.number, "targets_reached": t.value, "params": t.params} for t in best]
     return status
 
@@ -259,7 +264,8 @@ def write_study_report(
 ) -> dict[str, Any]:
     """Write ``NAME.md``, ``NAME.csv`` and ``NAME.png`` (and a search's ``NAME-search.csv``) into ``out``
     from the finished trials; returns the files and the study's status."""
-    status = study_status(design, settings, url)
+    stages = open_stages(design, settings, url)
+    status = study_status(design, settings, url, stages)
     out.mkdir(parents=True, exist_ok=True)
     lines = [f"# Agent study {design.name} ({design.title})", "", _budget_line(design, settings), ""]
     if command:
@@ -267,16 +273,15 @@ def write_study_report(
     lines += [f"The thesis: {THESIS_FINDINGS.get(design.name, '')}", ""]
     written = []
     if design.is_search:
-        search = open_stage(design, settings, SEARCH, url)
-        searched = _finished(search)
+        searched = _finished(stages[SEARCH])
         write_atomic(out / f"{design.name}-search.csv", _rows_csv(searched, lambda t: f"trial{t.number}"))
         written.append(str(out / f"{design.name}-search.csv"))
         lines += _search_lines(design, settings, searched, status)
-        trials = _finished(open_stage(design, settings, CONFIRM, url))
+        trials = _finished(stages[CONFIRM])
         group_of = lambda t: f"trial{t.params['candidate']}"  # noqa: E731
         grid = settings.confirm_budget / 25
     else:
-        trials = _finished(open_stage(design, settings, LIST, url))
+        trials = _finished(stages[LIST])
         group_of = lambda t: t.params["variant"]  # noqa: E731
         grid = settings.budget / 25
     missing = status[CONFIRM if design.is_search else LIST]["missing"]
