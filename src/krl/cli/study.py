@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import multiprocessing
 import shlex
-import sys
 from pathlib import Path
 
 from krl.cli.common import CliError, emit, parse_ints
@@ -72,7 +71,7 @@ def run_level_base(args: argparse.Namespace) -> int:
         policies[label or name] = path
     runs = level_runs(policies, [load_course(name) for name in LEVEL_COURSES])
     out = Path(args.report_out or args.out or "runs/agent-studies/level-base")
-    command = "krl " + shlex.join(sys.argv[1:])
+    command = "krl " + shlex.join(args.argv)
     emit({"written": write_level_report(runs, out, command)}, args.json)
     return 0
 
@@ -94,7 +93,7 @@ def run_study(args: argparse.Namespace) -> int:
     jobs = args.jobs or max(1, usable_cores() // max(1, settings.workers))
     try:
         if args.report:
-            command = "krl " + shlex.join(sys.argv[1:])
+            command = "krl " + shlex.join(args.argv)
             written = write_study_report(
                 design, settings, url, Path(args.report_out or out / "report"), command
             )

@@ -96,10 +96,11 @@ def course_tasks(
     """Every (course, start[, seed]) run, seeds as :func:`run_seeds`; videos are made of each course's
     first run, or of every run with ``video_all``."""
     tasks = []
+    seeds_run = run_seeds(spec, seeds) if courses else []
     for course in courses:
         first = True
         for start in range(len(course.starts)):
-            for seed in run_seeds(spec, seeds):
+            for seed in seeds_run:
                 name = f"start{start}" + ("" if seed is None else f"-seed{seed}")
                 video = None
                 if video_dir is not None and (first or video_all):
