@@ -18,6 +18,7 @@ from typing import Any
 
 from krl.kernel.model import NetworkConfig
 from krl.kernel.train import TrainConfig, prepare_data, train_kernel
+from krl.util.optuna_storage import study_storage
 from krl.util.output import write_atomic
 from krl.util.thesis import COMPARISON_EPOCHS
 
@@ -66,20 +67,6 @@ def trials_csv(trials) -> str:
     return buffer.getvalue()
 
 
-def _storage(url: str):
-    import optuna
-    from optuna.storages import RDBStorage, RetryHeartbeatStaleTrialCallback
-
-    if url.startswith(("sqlite", "postgresql", "mysql")):
-        return RDBStorage(
-            url,
-            heartbeat_interval=60,
-            grace_period=180,
-            heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(max_retry=2),
-        )
-    return optuna.storages.get_storage(url)
-
-
 def tune(
     dataset,
     out_dir: str | Path,
@@ -107,7 +94,7 @@ def tune(
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(
         study_name=study_name,
-        storage=_storage(url),
+        storage=study_storage(url),
         direction="minimize",
         sampler=optuna.samplers.TPESampler(seed=seed),
         pruner=optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=2),

@@ -39,6 +39,7 @@ from typing import Any
 from stable_baselines3.common.callbacks import BaseCallback
 
 from krl.agent.studies.designs import StudyDesign, merged
+from krl.util.optuna_storage import study_storage
 
 SEARCH, CONFIRM, LIST = "search", "confirm", "list"
 """A study's stages: a search's random trials and its confirming runs; a list study's runs."""
@@ -111,22 +112,6 @@ class StudySettings:
         return data
 
 
-def storage(url: str, heartbeat: float = 60.0):
-    """An Optuna storage for ``url`` that heart-beats running trials every ``heartbeat`` seconds and
-    retries (enqueues again) those that stopped beating for three beats."""
-    from optuna.storages import RDBStorage, RetryHeartbeatStaleTrialCallback
-
-    # SQLite lets one writer in at a time: wait for the lock (--jobs on one machine) rather than fail
-    engine = {"connect_args": {"timeout": 120}} if url.startswith("sqlite") else None
-    return RDBStorage(
-        url,
-        engine_kwargs=engine,
-        heartbeat_interval=max(1, round(heartbeat)),
-        grace_period=max(3, round(3 * heartbeat)),
-        heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(max_retry=3),
-    )
-
-
 def open_stage(design: StudyDesign, settings: StudySettings, stage: str, url: str, heartbeat: float = 60.0):
     """The Optuna study of one stage (``NAME`` or ``NAME:confirm``), created or loaded; refuses one
     created with other settings."""
@@ -146,7 +131,7 @@ def open_stage(design: StudyDesign, settings: StudySettings, stage: str, url: st
     }
     study = optuna.create_study(
         study_name=design.name if stage != CONFIRM else f"{design.name}:confirm",
-        storage=storage(url, heartbeat),
+        storage=study_storage(url, heartbeat, retries=3),
         direction="maximize",
         sampler=sampler,
         pruner=pruners[settings.pruner] if stage == SEARCH else optuna.pruners.NopPruner(),
