@@ -25,6 +25,7 @@ from krl.agent.studies.runner import (
     best_trials,
     open_stage,
     plan_entries,
+    pruner,
 )
 from krl.util.output import csv_bytes, figure_bytes, write_atomic
 
@@ -303,7 +304,6 @@ def write_study_report(
 
 def _search_lines(design: StudyDesign, settings: StudySettings, searched, status) -> list[str]:
     """The search's part of the report: its trials, the best ones, and the pruning replay."""
-    import optuna
 
     lines = [
         f"Search trials finished: {status[SEARCH]['finished']} ({status[SEARCH]['pruned']} pruned, "
@@ -318,9 +318,7 @@ def _search_lines(design: StudyDesign, settings: StudySettings, searched, status
         )
         lines.append(f"| {best['trial']} | {best['targets_reached']:.2f} | {params} |")
     if settings.pruner == "none" and searched:
-        replay = replay_pruning(
-            searched, optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=settings.budget // 5)
-        )
+        replay = replay_pruning(searched, pruner("median", settings.budget))
         top = [b["trial"] for b in status["best"]]
         saved = replay["env_steps_unpruned"] / max(1, replay["env_steps_pruned"])
         lines += [

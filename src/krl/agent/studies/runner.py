@@ -112,6 +112,18 @@ class StudySettings:
         return data
 
 
+def pruner(name: str, budget: int):
+    """The Optuna pruner ``--pruner name`` stands for, for trials of ``budget`` env steps: the median rule
+    after 5 trials and 20 % of the budget, successive halving from an eighth of it, or none."""
+    import optuna
+
+    if name == "median":
+        return optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=budget // 5)
+    if name == "halving":
+        return optuna.pruners.SuccessiveHalvingPruner(min_resource=budget // 8)
+    return optuna.pruners.NopPruner()
+
+
 def open_stage(design: StudyDesign, settings: StudySettings, stage: str, url: str, heartbeat: float = 60.0):
     """The Optuna study of one stage (``NAME`` or ``NAME:confirm``), created or loaded; refuses one
     created with other settings."""
@@ -124,17 +136,12 @@ def open_stage(design: StudyDesign, settings: StudySettings, stage: str, url: st
         if settings.sampler == "tpe"
         else optuna.samplers.RandomSampler(seed=None)
     )
-    pruners = {
-        "median": optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=settings.budget // 5),
-        "halving": optuna.pruners.SuccessiveHalvingPruner(min_resource=settings.budget // 8),
-        "none": optuna.pruners.NopPruner(),
-    }
     study = optuna.create_study(
         study_name=design.name if stage != CONFIRM else f"{design.name}:confirm",
         storage=study_storage(url, heartbeat, retries=3),
         direction="maximize",
         sampler=sampler,
-        pruner=pruners[settings.pruner] if stage == SEARCH else optuna.pruners.NopPruner(),
+        pruner=pruner(settings.pruner if stage == SEARCH else "none", settings.budget),
         load_if_exists=True,
     )
     stored = study.user_attrs.get("settings")
