@@ -23,11 +23,11 @@ name = "flat"
 @pytest.mark.parametrize("name", SHIPPED_COURSES)
 def test_shipped_courses_load(name):
     course = load_course(name)
-    assert course.name == name and course.terrain == name
+    assert course.name == name and course.terrain == name.removesuffix("-hard")
     assert len(course.waypoints) == 5 and len(course.starts) == 4
     assert course.d_min == 0.5 and course.time_limit > 0
     model = course.build()
-    assert model.terrain.name == name
+    assert model.terrain.name == course.terrain
 
 
 def test_thesis_courses_and_their_inclines():
@@ -36,6 +36,23 @@ def test_thesis_courses_and_their_inclines():
     assert load_course("stairs").terrain_params["step_height"] == 0.04
     assert load_course("tabletop").terrain_params["max_tilt"] == 0.087
     assert load_course("seesaw").terrain_params["max_tilt"] == 0.1
+
+
+def test_the_harder_courses_change_one_setting_each():
+    changed = {
+        "stairs": "step_height",
+        "tabletop": "max_tilt",
+        "seesaw": "max_tilt",
+        "sinusoid": "max_incline",
+    }
+    for name, key in changed.items():
+        thesis, hard = load_course(name), load_course(f"{name}-hard")
+        assert hard.terrain_params[key] > thesis.terrain_params[key]
+        others = set(hard.terrain_params) - {key, "height"}  # the harder table-top stands higher
+        assert {k: hard.terrain_params[k] for k in others} == {
+            k: thesis.terrain_params.get(k) for k in others
+        }
+        assert hard.waypoints == thesis.waypoints and hard.starts == thesis.starts
 
 
 def test_a_users_file_loads_and_its_fingerprint_follows_its_content(tmp_path):

@@ -19,9 +19,9 @@ from typing import Any
 
 from krl.control.commands import CommandParams
 from krl.control.filters import DEFAULT_ALPHA
-from krl.robots.a1.constants import NUM_LEGS
+from krl.robots.a1.constants import FOOT_FRICTION, NUM_LEGS
 from krl.sim.pushes import PushDistribution
-from krl.sim.terrains import HEIGHTFIELD_MAX_HEIGHT_RANGE
+from krl.sim.terrains import HEIGHTFIELD_MAX_HEIGHT_RANGE, MAX_GROUND_FRICTION
 from krl.task.reward import EVALUATION_REWARD, RewardConfig, RewardConfigError
 from krl.task.waypoints import TARGET_DISTANCE
 
@@ -77,6 +77,10 @@ class EnvConfig:
     """Probability that a new terrain is a random height field (else Perlin hills)."""
     heightfield_max_height: tuple[float, float] = HEIGHTFIELD_MAX_HEIGHT_RANGE
     """Height-field perturbation h ~ U(low, high) [m] (blocks of height U(0, h))."""
+    friction: tuple[float, float] = (FOOT_FRICTION, FOOT_FRICTION)
+    """The ground's sliding friction μ ~ U(low, high) [-] of each new terrain (the terrains' ``friction``
+    parameter). Ours, a training option: the thesis trains on μ = 1, the default, where nothing is drawn,
+    so a default run makes the thesis's draws."""
     episodes_per_terrain: int = 5
     """Consecutive episodes on one terrain before a new one is drawn."""
     episode_time: float = 60.0
@@ -106,6 +110,11 @@ class EnvConfig:
         _range("heightfield_max_height", self.heightfield_max_height)
         if self.heightfield_max_height[0] <= 0:
             raise AgentConfigError("heightfield_max_height must be > 0 m")
+        _range("friction", self.friction)
+        if not 0 < self.friction[0] <= self.friction[1] <= MAX_GROUND_FRICTION:
+            raise AgentConfigError(
+                f"friction must satisfy 0 < low <= high <= {MAX_GROUND_FRICTION:g}, got {self.friction!r}"
+            )
         if not (isinstance(self.episodes_per_terrain, int) and self.episodes_per_terrain >= 1):
             raise AgentConfigError(
                 f"episodes_per_terrain must be an integer >= 1, got {self.episodes_per_terrain!r}"

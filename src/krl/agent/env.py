@@ -100,15 +100,22 @@ class ResidualEnvBatch:
         self.needs_terrain[index] = True
 
     def _terrain(self, index: int):
+        """A new terrain for environment ``index`` from its rng: a height field or Perlin hills, and the
+        ground's friction μ ~ U(``config.env.friction``), drawn only when that range is not one value (so
+        the default, μ = 1, makes the draws of runs before the option). Its name carries μ where not 1."""
         rng = self.rngs[index]
         env = self.config.env
         seed = int(rng.integers(2**31))
         if rng.random() < env.heightfield_probability:
             low, high = env.heightfield_max_height
-            built = build_model("heightfield", {"max_height_low": low, "max_height_high": high}, seed)
+            name, params = "heightfield", {"max_height_low": low, "max_height_high": high}
         else:
-            built = build_model("perlin", None, seed)
-        self.terrain_names[index] = f"{built.terrain.name}-{seed}"
+            name, params = "perlin", {}
+        low, high = env.friction
+        params["friction"] = float(rng.uniform(low, high)) if low < high else low
+        built = build_model(name, params, seed)
+        mu = built.terrain.params.get("friction")
+        self.terrain_names[index] = f"{name}-{seed}" + ("" if mu is None else f"-mu{mu:.3f}")
         return built
 
     def reset(self, rows) -> np.ndarray:

@@ -101,7 +101,7 @@ class Row:
         return Step(self.name, argv, _pick(self.minutes, quick), self.makes, config)
 
 
-COURSES: tuple[str, ...] = ("tabletop", "seesaw", "stairs", "sinusoid", "flat", "slope")
+COURSES: tuple[str, ...] = ("tabletop", "seesaw", "stairs", "sinusoid", "flat", "slope", "heightfield")
 """The courses pictured in ``docs/figures/courses``."""
 STANCES: tuple[str, ...] = ("0.3", "0.25", "0.2")
 """τ_stance of Table 4.3's datasets [s]."""

@@ -1,8 +1,10 @@
-"""``krl evaluate`` and ``krl report`` (push sweep defaults: :class:`krl.eval.episodes.PushSweep`)."""
+"""``krl evaluate`` and ``krl report`` (sweep defaults: :class:`krl.eval.episodes.PushSweep` and
+:class:`krl.eval.episodes.FrictionSweep`)."""
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import shlex
 import sys
@@ -10,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from krl.cli.common import default_of, emit, given, interrupted_status, parse_ints
-from krl.eval.courses import SHIPPED_COURSES, THESIS_COURSES
+from krl.eval.courses import HARDER_COURSES, SHIPPED_COURSES, THESIS_COURSES
 
 
 def _magnitudes(text: str) -> tuple[float, ...]:
@@ -29,8 +31,19 @@ def _magnitudes(text: str) -> tuple[float, ...]:
         ) from None
 
 
+def _frictions(text: str) -> tuple[float, ...]:
+    """``1,0.5,0.3`` -> ground friction coefficients μ [-], each a finite number > 0."""
+    try:
+        values = tuple(float(part) for part in text.split(","))
+    except ValueError:
+        values = ()
+    if not values or not all(math.isfinite(mu) and mu > 0 for mu in values):
+        raise ValueError(f"--frictions expects a comma list of friction coefficients > 0, got {text!r}")
+    return values
+
+
 def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
-    from krl.eval.episodes import PushSweep
+    from krl.eval.episodes import FrictionSweep, PushSweep
 
     magnitudes = default_of(PushSweep, "magnitudes")
 
@@ -48,7 +61,8 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
         action="append",
         metavar="NAME_OR_PATH",
         help=f"a shipped course ({', '.join(SHIPPED_COURSES)}), a course file, `thesis` (the four of "
-        "Tables 5.1-5.4) or `all` (repeatable; default: thesis, unless --push-sweep alone)",
+        "Tables 5.1-5.4), `harder` (their harder variants) or `all` (repeatable; default: thesis, unless "
+        "a sweep alone)",
     )
     parser.add_argument("--push-sweep", action="store_true", help="run the push robustness sweep (Table 5.5)")
     parser.add_argument(
@@ -65,6 +79,24 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
         "--push-seed",
         type=int,
         help=f"seed of the push sweep's random pushes (default {default_of(PushSweep, 'seed')})",
+    )
+    parser.add_argument(
+        "--friction-sweep",
+        action="store_true",
+        help="run the friction sweep: the sweep's courses from every start at each ground friction μ",
+    )
+    parser.add_argument(
+        "--frictions",
+        metavar="LIST",
+        help="friction sweep's ground friction coefficients μ, a comma list "
+        f"(default {','.join(f'{mu:g}' for mu in default_of(FrictionSweep, 'frictions'))})",
+    )
+    parser.add_argument(
+        "--friction-course",
+        action="append",
+        metavar="NAME_OR_PATH",
+        help="a course of the friction sweep, a shipped one or a file (repeatable; default "
+        f"{', '.join(default_of(FrictionSweep, 'courses'))})",
     )
     parser.add_argument(
         "--seeds",
@@ -87,11 +119,10 @@ def _courses(names: list[str] | None):
     """The courses of ``--course`` options, each once; two different courses of one name are refused."""
     from krl.eval.courses import distinct_courses, load_course
 
+    sets = {"thesis": THESIS_COURSES, "harder": HARDER_COURSES, "all": SHIPPED_COURSES}
     expanded: list[str] = []
     for name in names or []:
-        expanded += (
-            list(THESIS_COURSES) if name == "thesis" else list(SHIPPED_COURSES) if name == "all" else [name]
-        )
+        expanded += list(sets.get(name, (name,)))
     return distinct_courses([load_course(name) for name in dict.fromkeys(expanded)])
 
 
@@ -103,16 +134,27 @@ def push_sweep_from_args(args: argparse.Namespace):
     return PushSweep(**given(magnitudes=magnitudes, attempts=args.attempts, seed=args.push_seed))
 
 
+def friction_sweep_from_args(args: argparse.Namespace):
+    """The FrictionSweep of ``krl evaluate``'s friction options (fields not given keep their defaults)."""
+    from krl.eval.episodes import FrictionSweep
+
+    frictions = None if args.frictions is None else _frictions(args.frictions)
+    courses = None if args.friction_course is None else tuple(args.friction_course)
+    return FrictionSweep(**given(frictions=frictions, courses=courses))
+
+
 def run_evaluate(args: argparse.Namespace) -> int:
     from krl.eval import evaluate
     from krl.eval.controllers import distinct_controllers, parse_controller
     from krl.util.progress import progress_bar
 
     specs = distinct_controllers([parse_controller(text) for text in args.controller])
-    names = args.course if args.course or args.push_sweep else ["thesis"]
+    names = args.course if args.course or args.push_sweep or args.friction_sweep else ["thesis"]
     courses = _courses(names)
     seeds = None if args.seeds is None else parse_ints(args.seeds, "--seeds")
     sweep = push_sweep_from_args(args) if args.push_sweep else None
+    friction = friction_sweep_from_args(args) if args.friction_sweep else None
+    friction_courses = [] if friction is None else friction.load_courses()
     out = Path(args.out)
     video = Path(args.video) if args.video else None
     tasks = []
@@ -120,6 +162,8 @@ def run_evaluate(args: argparse.Namespace) -> int:
         tasks += evaluate.course_tasks(spec, courses, seeds, video, args.video_all)
         if sweep is not None:
             tasks += evaluate.push_tasks(spec, sweep, seeds, video)
+        if friction is not None:
+            tasks += evaluate.friction_tasks(spec, friction, friction_courses, seeds, video)
     command = "krl " + shlex.join(args.argv)
 
     def remember_command() -> None:  # once every option and stored result has been checked
@@ -150,7 +194,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
         mine = [r for t, r in zip(tasks, records, strict=True) if t.controller == spec]
         entry: dict[str, Any] = {}
         for course in courses:
-            runs = [r for r in mine if r.get("course") == course.name]
+            runs = [r for r in mine if r.get("course") == course.name and "friction" not in r]
             entry[course.name] = evaluate.summarise_course(runs)
             if spec.seeded:
                 entry[course.name]["by_seed"] = evaluate.summarise_course_by_seed(runs)
@@ -160,6 +204,11 @@ def run_evaluate(args: argparse.Namespace) -> int:
             if spec.seeded:
                 entry["push_by_seed"] = evaluate.summarise_push_by_seed(pushes)
             entry["push_directions"] = evaluate.summarise_push_directions(pushes)
+        if friction is not None:
+            grounds = [r for r in mine if "friction" in r]
+            entry["friction"] = evaluate.summarise_friction(grounds)
+            if spec.seeded:
+                entry["friction_by_seed"] = evaluate.summarise_friction_by_seed(grounds)
         entry["wall_seconds"] = round(sum(r["metrics"]["wall_seconds"] for r in mine), 1)
         summary["controllers"][spec.label] = entry
     emit(summary, args.json)
@@ -195,12 +244,13 @@ def run_report(args: argparse.Namespace) -> int:
 def register(subparsers) -> None:
     """Add ``krl evaluate`` and ``krl report`` to the main parser's subcommands."""
     p = subparsers.add_parser(
-        "evaluate", help="score controllers on the courses or the push sweep (resumable)"
+        "evaluate", help="score controllers on the courses, the push sweep or the friction sweep (resumable)"
     )
     add_evaluate_arguments(p)
     p.set_defaults(func=run_evaluate)
     p = subparsers.add_parser(
-        "report", help="Tables 5.1-5.5 and the evaluation plots from krl evaluate's results"
+        "report",
+        help="Tables 5.1-5.5, the friction table and the evaluation plots from krl evaluate's results",
     )
     add_report_arguments(p)
     p.set_defaults(func=run_report)

@@ -1,8 +1,10 @@
 """Evaluation courses: a terrain, five waypoints, the start poses, a time limit and D_min, as TOML files.
 
-krl ships the thesis's four courses (Section 5.1: ``tabletop``, ``seesaw``, ``stairs``, ``sinusoid``)
-and a ``flat`` reference course in ``krl/eval/courses/``; :func:`load_course` takes one of those names or
-the path of a user's own file. Every key is checked, and any problem is one :class:`CourseError` line
+krl ships the thesis's four courses (Section 5.1: ``tabletop``, ``seesaw``, ``stairs``, ``sinusoid``),
+a ``flat`` reference course, two of ours (``slope``, Fig. 4.22's ramps; ``heightfield``, a random
+height field, the friction sweep's) and a harder variant of each thesis course (:data:`HARDER_COURSES`)
+in ``krl/eval/courses/``; :func:`load_course` takes one of those
+names or the path of a user's own file. Every key is checked, and any problem is one :class:`CourseError` line
 naming the file and the key. The format is documented in ``docs/evaluation.md``.
 """
 
@@ -23,11 +25,27 @@ import numpy as np
 COURSE_FORMAT = 1
 """Version of the course file format."""
 
-SHIPPED_COURSES: tuple[str, ...] = ("flat", "sinusoid", "stairs", "tabletop", "seesaw", "slope")
+SHIPPED_COURSES: tuple[str, ...] = (
+    "flat",
+    "sinusoid",
+    "stairs",
+    "tabletop",
+    "seesaw",
+    "slope",
+    "heightfield",
+    "tabletop-hard",
+    "seesaw-hard",
+    "stairs-hard",
+    "sinusoid-hard",
+)
 """Courses shipped with krl."""
 
 THESIS_COURSES: tuple[str, ...] = ("tabletop", "seesaw", "stairs", "sinusoid")
 """The thesis's four evaluation courses, in the order of Tables 5.1-5.4."""
+
+HARDER_COURSES: tuple[str, ...] = tuple(f"{name}-hard" for name in THESIS_COURSES)
+"""Ours, beyond the thesis: each thesis course made harder in one setting (stairs of 6 cm, the table-top
+and the seesaw tilting 0.12 rad, the sinusoid's inclines 0.25 rad), the same waypoints and starts."""
 
 PLANE_EXTENT: float = 100.0
 """Half side [m] of the square around the origin that a course must lie in on a terrain whose ground is

@@ -1,4 +1,4 @@
-"""Scoring one run: a course from one start pose, or one attempt of the push sweep.
+"""Scoring one run: a course from one start pose, or one attempt of the push sweep; the friction sweep.
 
 :class:`EpisodeScorer` watches a :class:`krl.task.runner.Runner` step by step and adds up the reward terms
 (:mod:`krl.task.reward`), the waypoints reached and the distance walked; :func:`score_walk` runs a walk under
@@ -243,3 +243,49 @@ def score_push_attempt(
         video=video,
     )
     return {**metrics, "push": push.summary()}
+
+
+# --- the friction sweep (ours, issue #25) --------------------------------------------------------------
+
+FRICTION_SWEEP_FRICTIONS: tuple[float, ...] = (1.0, 0.8, 0.6, 0.5, 0.4, 0.3)
+"""Default ground friction coefficients μ of the sweep [-]: 1, the thesis's ground (4.2.1), as the
+reference; 0.8 and 0.6, where 0.6 is the μ of the MPC's own friction pyramid (docs/mpc.md), so below it the
+ground no longer holds every force the expert plans; 0.5, where issue #25 sets its target (success >= 0.9
+on the flat and height-field courses); 0.4 and 0.3, slippery ground (wet or dusty), to find where each
+controller starts to slip and fall."""
+
+
+@dataclass(frozen=True)
+class FrictionSweep:
+    """The friction sweep: courses walked again, from every start pose, with the ground's sliding friction
+    μ (the terrain parameter ``friction``, docs/terrains.md) set to each of ``frictions`` in turn. Only μ
+    changes along the sweep: the course, its starts and its time limit stay."""
+
+    frictions: tuple[float, ...] = FRICTION_SWEEP_FRICTIONS
+    """Ground friction coefficients μ [-], each > 0 and distinct."""
+    courses: tuple[str, ...] = ("flat", "heightfield")
+    """The courses walked at each μ (shipped names or course files): flat ground and a height field."""
+
+    def __post_init__(self) -> None:
+        if not self.frictions or any(not (math.isfinite(mu) and mu > 0) for mu in self.frictions):
+            raise ValueError(f"frictions must be finite numbers > 0, got {self.frictions}")
+        if len(set(self.frictions)) != len(self.frictions):
+            raise ValueError(f"frictions must be distinct, got {self.frictions}")
+        if not self.courses:
+            raise ValueError("the friction sweep needs at least one course")
+
+    def load_courses(self) -> list:
+        """The sweep's courses (:class:`krl.eval.courses.Course`), each once
+        (:func:`krl.eval.courses.distinct_courses`); a :class:`krl.eval.courses.CourseError` if one cannot be
+        loaded."""
+        from krl.eval.courses import distinct_courses, load_course
+
+        return distinct_courses([load_course(name) for name in dict.fromkeys(self.courses)])
+
+    @staticmethod
+    def on(course, friction: float):
+        """``course`` (a :class:`krl.eval.courses.Course`) with its ground's friction set to ``friction``
+        [-] (its fingerprint changes with it)."""
+        from dataclasses import replace
+
+        return replace(course, terrain_params={**course.terrain_params, "friction": friction})

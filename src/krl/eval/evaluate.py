@@ -1,16 +1,19 @@
-"""``krl evaluate``: run a controller on courses or the push sweep, one process per core, resumably.
+"""``krl evaluate``: run a controller on courses, the push sweep or the friction sweep, one process per
+core, resumably.
 
-Each run (a course from one start pose, with one seed where the controller depends on it; or one
-attempt at one push magnitude) is a :class:`Task`. Workers run tasks and return their records; the main
-process writes each record atomically to ``OUT/<controller>/<course>/<run>.json`` (or
-``OUT/<controller>/push/m<N>-a<k>.json``) as it arrives. A record stores what made it (controller,
-course or sweep fingerprint, seed), so a re-run skips finished runs and refuses to mix results of a
-different course file or kernel into the same directory. Every run is seeded by its own key, so results
-do not depend on the number of workers or on the order in which runs finish.
+Each run (a course from one start pose, with one seed where the controller depends on it; one attempt at
+one push magnitude; or a course from one start pose at one ground friction) is a :class:`Task`. Workers
+run tasks and return their records; the main process writes each record atomically to
+``OUT/<controller>/<course>/<run>.json`` (``OUT/<controller>/push/m<N>-a<k>.json``,
+``OUT/<controller>/friction/<course>-mu<μ>-start<k>.json``) as it arrives. A record stores what made it
+(controller, course or sweep fingerprint, seed, friction), so a re-run skips finished runs and refuses to
+mix results of a different course file or kernel into the same directory. Every run is seeded by its own
+key, so results do not depend on the number of workers or on the order in which runs finish.
 """
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import statistics
@@ -23,7 +26,7 @@ import numpy as np
 
 from krl.eval.controllers import ControllerSpec
 from krl.eval.courses import Course
-from krl.eval.episodes import PushSweep, score_push_attempt, score_walk
+from krl.eval.episodes import FrictionSweep, PushSweep, score_push_attempt, score_walk
 from krl.util.output import write_atomic
 from krl.util.parallel import run_jobs
 
@@ -32,6 +35,9 @@ RESULT_FORMAT = 1
 
 PUSH_DIR = "push"
 """Subdirectory of a controller's results that holds the push sweep."""
+
+FRICTION_DIR = "friction"
+"""Subdirectory of a controller's results that holds the friction sweep."""
 
 
 class EvaluationError(RuntimeError):
@@ -51,6 +57,8 @@ class Task:
     sweep: PushSweep | None = None
     magnitude: float = 0.0
     attempt: int = 0
+    friction: float | None = None
+    """The ground friction μ [-] of a friction sweep's run (``course`` is then the course at that μ)."""
     video: str | None = None
     """Write an MP4 of the run here."""
 
@@ -69,6 +77,8 @@ class Task:
                 start=self.start,
                 seed=self.seed,
             )
+            if self.friction is not None:
+                identity["friction"] = self.friction
         return identity
 
 
@@ -137,6 +147,30 @@ def push_tasks(
     return tasks
 
 
+def friction_tasks(
+    spec: ControllerSpec,
+    sweep: FrictionSweep,
+    courses: Sequence[Course],
+    seeds: Sequence[int] | None = None,
+    video_dir: Path | None = None,
+) -> list[Task]:
+    """Every (course, μ, start[, seed]) run of the friction sweep, seeds as :func:`run_seeds`; ``courses``
+    are the sweep's (:meth:`FrictionSweep.load_courses`, loaded once for every controller). A video of
+    each course's first run at each μ if asked."""
+    tasks = []
+    seeds_run = run_seeds(spec, seeds)
+    for course, friction in itertools.product(courses, sweep.frictions):
+        at_mu = FrictionSweep.on(course, friction)
+        for start, seed in itertools.product(range(len(course.starts)), seeds_run):
+            name = f"{course.name}-mu{friction:g}-start{start}" + ("" if seed is None else f"-seed{seed}")
+            first = start == 0 and seed == seeds_run[0]
+            video = str(video_dir / spec.label / f"friction-{name}.mp4") if video_dir and first else None
+            tasks.append(
+                Task(f"{FRICTION_DIR}/{name}", spec, at_mu, start, seed, friction=friction, video=video)
+            )
+    return tasks
+
+
 def run_task(task: Task) -> dict[str, Any]:
     """Run one task (in a worker); returns its record (identity + metrics)."""
     from krl.sim.robot import A1Sim
@@ -188,6 +222,7 @@ _IDENTITY_NAMES = {
     "sweep": "push sweep",
     "magnitude": "push sweep",
     "attempt": "push sweep",
+    "friction": "ground friction",
     "start": "start",
     "seed": "seed",
 }
@@ -412,3 +447,39 @@ def summarise_course_by_seed(records: Sequence[dict[str, Any]]) -> list[dict[str
         keep = ("runs", "targets", "targets_reached_mean", "success_rate", "fall_rate")
         rows.append({"seed": seed, **{key: summary[key] for key in keep}})
     return rows
+
+
+def summarise_friction(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per (course, μ) of the friction sweep, courses in the records' order and μ falling: runs,
+    success rate with its 95 % interval (:func:`success_interval`), fall rate (errors count as falls) and
+    waypoints reached (mean). Records of several training seeds are pooled; their rows add ``seeds`` and
+    ``success_rate_seed_std``, the sample std of the seeds' rates."""
+    groups: dict[tuple[str, float], list[dict[str, Any]]] = {}
+    for record in records:
+        groups.setdefault((record["course"], float(record["friction"])), []).append(record)
+    courses = list(dict.fromkeys(course for course, _ in groups))
+    rows = []
+    for course, friction in sorted(groups, key=lambda key: (courses.index(key[0]), -key[1])):
+        group = groups[(course, friction)]
+        success = _success(group)
+        row = {
+            "course": course,
+            "friction": friction,
+            "runs": success.pop("attempts"),
+            **success,
+            "fall_rate": sum(_counts_as_fall(r["metrics"]) for r in group) / len(group),
+            "targets_reached_mean": statistics.fmean(r["metrics"]["targets_reached"] for r in group),
+        }
+        seeds = by_seed(group)
+        if len(seeds) > 1:
+            rates = [_success(runs)["success_rate"] for runs in seeds.values()]
+            row.update(seeds=len(seeds), success_rate_seed_std=_mean_std(rates)[1])
+        rows.append(row)
+    return rows
+
+
+def summarise_friction_by_seed(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """:func:`summarise_friction` of each training seed's runs, each row with its ``seed``."""
+    return [
+        {"seed": seed, **row} for seed, runs in by_seed(records).items() for row in summarise_friction(runs)
+    ]

@@ -1,10 +1,11 @@
 """``krl report``: the thesis's Tables 5.1-5.5 and the evaluation plots from stored ``krl evaluate`` results.
 
-Reads ``RESULTS/<controller>/<course>/*.json`` and ``RESULTS/<controller>/push/*.json`` and writes, into
-``OUT``: ``evaluation.md`` (every table, the thesis's numbers beside ours, the commands that made the
-results), one CSV per table, ``courses.png`` (success and fall rate per course and controller) and
-``push.png`` (success rate against push magnitude), and the push sweep's success by push direction
-(``push-direction.csv``).
+Reads ``RESULTS/<controller>/<course>/*.json``, ``RESULTS/<controller>/push/*.json`` and
+``RESULTS/<controller>/friction/*.json`` and writes, into ``OUT``: ``evaluation.md`` (every table, the
+thesis's numbers beside ours, the commands that made the results), one CSV per table, ``courses.png``
+(success and fall rate per course and controller) and ``push.png`` (success rate against push magnitude),
+the push sweep's success by push direction (``push-direction.csv``) and the friction sweep's success and
+fall rates per ground friction (``friction.csv``).
 """
 
 from __future__ import annotations
@@ -15,12 +16,15 @@ from typing import Any
 
 from krl.eval.courses import THESIS_COURSES
 from krl.eval.evaluate import (
+    FRICTION_DIR,
     PUSH_DIR,
     PUSH_DIRECTIONS,
     load_record,
     success_interval,
     summarise_course,
     summarise_course_by_seed,
+    summarise_friction,
+    summarise_friction_by_seed,
     summarise_push,
     summarise_push_by_seed,
     summarise_push_directions,
@@ -170,6 +174,48 @@ def push_direction_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> li
         if PUSH_DIR in groups
         for row in summarise_push_directions(groups[PUSH_DIR])
     ]
+
+
+def friction_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
+    """One row per (controller, course, μ) of the friction sweep (a seed group's pooled over its seeds,
+    then one row per (seed, course, μ) with its ``seed``); the thesis has none."""
+    rows = []
+    for label, groups in found.items():
+        records = groups.get(FRICTION_DIR, [])
+        rows += [{"controller": label, **row} for row in summarise_friction(records)]
+        rows += [{"controller": label, **row} for row in summarise_friction_by_seed(records)]
+    return rows
+
+
+def _friction_markdown(rows: list[dict[str, Any]]) -> str:
+    """One table per course: a row per controller (and per training seed), a column per μ, falling."""
+    lines = [
+        "### Success against ground friction (ours)",
+        "",
+        "The courses walked from every start with the ground's sliding friction μ (the thesis's ground: "
+        "μ = 1). Each cell: success rate / fall rate (runs); the success rates' 95 % Wilson intervals are "
+        "in `friction.csv`.",
+    ]
+    for course in dict.fromkeys(r["course"] for r in rows):
+        mine = [
+            {**r, "controller": r["controller"] + (f" seed {r['seed']}" if "seed" in r else "")}
+            for r in rows
+            if r["course"] == course
+        ]
+        frictions = sorted({r["friction"] for r in mine}, reverse=True)
+        lines += [
+            "",
+            f"Course `{course}`:",
+            "",
+            *_controller_table(
+                mine,
+                "friction",
+                frictions,
+                [f"μ = {mu:g}" for mu in frictions],
+                lambda r: f"{r['success_rate']:.2f} / {r['fall_rate']:.2f} ({r['runs']})",
+            ),
+        ]
+    return "\n".join(lines) + "\n"
 
 
 def _controller_table(
@@ -388,11 +434,13 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
     """Write the tables and plots; returns what was written and the summary rows."""
     found = collect(results, controllers)
     course_names = [c for c in THESIS_COURSES if any(c in g for g in found.values())]
-    course_names += sorted({c for g in found.values() for c in g} - set(THESIS_COURSES) - {PUSH_DIR})
+    sweeps = {PUSH_DIR, FRICTION_DIR}
+    course_names += sorted({c for g in found.values() for c in g} - set(THESIS_COURSES) - sweeps)
     tables = {course: course_rows(found, course) for course in course_names}
     pushes = push_rows(found)
     have_push = any(r["source"] == "krl" for r in pushes)
-    if not tables and not have_push:
+    frictions = friction_rows(found)
+    if not tables and not have_push and not frictions:
         raise FileNotFoundError(f"no evaluation results in {str(results)!r}")
     written = []
     parts = [
@@ -437,6 +485,11 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
         path = out / "push-direction.csv"
         write_atomic(path, _csv(directions))
         written.append(str(path))
+    if frictions:
+        parts.append(_friction_markdown(frictions))
+        path = out / "friction.csv"
+        write_atomic(path, _csv(frictions))
+        written.append(str(path))
     if tables:
         _plot_courses(out / "courses.png", tables)
         written.append(str(out / "courses.png"))
@@ -444,4 +497,5 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
     markdown = out / "evaluation.md"
     write_atomic(markdown, "\n".join(parts))
     written.insert(0, str(markdown))
-    return {"written": written, "courses": tables, "push": [r for r in pushes if r["source"] == "krl"]}
+    ours = [r for r in pushes if r["source"] == "krl"]
+    return {"written": written, "courses": tables, "push": ours, "friction": frictions}

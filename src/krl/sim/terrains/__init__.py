@@ -7,7 +7,9 @@ draws and the reasons for every choice the thesis leaves open.
 
 World conventions: z up, ground at z = 0 for the flat-floored terrains, the robot starts at
 :attr:`Terrain.spawn_xy` facing +x (:attr:`Terrain.spawn_yaw` = 0). Every terrain geom collides with the
-robot only, with condim 3 and the feet's sliding friction (:data:`TERRAIN_FRICTION`).
+robot only, with condim 3 and the friction :data:`TERRAIN_FRICTION`, whose sliding μ (1, the feet's) the
+``friction`` parameter every terrain has changes (:class:`GroundParams`); the terrain's geoms have the higher
+MuJoCo priority (:data:`TERRAIN_PRIORITY`), so μ is the contact's.
 
 Modules, each importing only those listed before it:
 
@@ -15,11 +17,11 @@ Modules, each importing only those listed before it:
   :data:`MAX_HFIELD_SIDE`, and :class:`HeightGrid` (vertex heights in world z, the surface as MuJoCo
   triangulates it, slopes).
 - :mod:`~krl.sim.terrains.params`: :data:`TERRAIN_NAMES`, :class:`TerrainError`, the parameter dataclasses
-  (``FlatParams`` ... ``SeesawParams``, with :data:`HEIGHTFIELD_MAX_HEIGHT_RANGE`) and their resolution and
-  bound checks.
+  (:class:`GroundParams`, what every terrain has, and ``FlatParams`` ... ``SeesawParams``, with
+  :data:`HEIGHTFIELD_MAX_HEIGHT_RANGE`) and their resolution and bound checks.
 - :mod:`~krl.sim.terrains.terrain`: :class:`Terrain`, what a build returns (spawn, landmarks, height query).
-- :mod:`~krl.sim.terrains.geoms`: the geom every terrain adds (collision settings, :data:`TERRAIN_FRICTION`)
-  and the floor plane.
+- :mod:`~krl.sim.terrains.geoms`: the geom every terrain adds (collision settings, :data:`TERRAIN_FRICTION`,
+  :data:`TERRAIN_PRIORITY`), the floor plane and setting the ground's friction.
 - :mod:`~krl.sim.terrains.heightfields`: the height-field terrains: random height field, Perlin hills,
   sinusoid (and :func:`sinusoid_amplitude`).
 - :mod:`~krl.sim.terrains.primitives`: the terrains built from planes and boxes: flat, stairs, and the
@@ -28,14 +30,16 @@ Modules, each importing only those listed before it:
   shares: sky, textures, materials, lights) and :func:`terrain_param_defaults`.
 """
 
-from krl.sim.terrains.geoms import TERRAIN_FRICTION
+from krl.sim.terrains.geoms import TERRAIN_FRICTION, TERRAIN_PRIORITY
 from krl.sim.terrains.grid import MAX_HFIELD_SIDE, HeightGrid
 from krl.sim.terrains.heightfields import sinusoid_amplitude
 from krl.sim.terrains.params import (
     HEIGHTFIELD_MAX_HEIGHT_RANGE,
     HEIGHTFIELD_MILD_MAX_HEIGHT,
+    MAX_GROUND_FRICTION,
     TERRAIN_NAMES,
     FlatParams,
+    GroundParams,
     HeightfieldParams,
     PerlinParams,
     SeesawParams,
@@ -51,10 +55,13 @@ from krl.sim.terrains.terrain import Terrain
 __all__ = [
     "HEIGHTFIELD_MAX_HEIGHT_RANGE",
     "HEIGHTFIELD_MILD_MAX_HEIGHT",
+    "MAX_GROUND_FRICTION",
     "MAX_HFIELD_SIDE",
     "TERRAIN_FRICTION",
     "TERRAIN_NAMES",
+    "TERRAIN_PRIORITY",
     "FlatParams",
+    "GroundParams",
     "HeightGrid",
     "HeightfieldParams",
     "PerlinParams",

@@ -1,8 +1,9 @@
 """Terrain names and parameters: one frozen dataclass per terrain, and their resolution and checks.
 
-Each field's metadata (set by :func:`_p`) gives its bounds (gt/ge/lt/le), used by :func:`resolve_params`;
-the kind (int, float, float-or-None) is taken from the default. A dataclass's ``_problem`` method checks
-what spans fields (a range's ends in order, a height field's vertex count).
+Every terrain's dataclass extends :class:`GroundParams`, the parameters every terrain has (the ground's
+friction). Each field's metadata (set by :func:`_p`) gives its bounds (gt/ge/lt/le), used by
+:func:`resolve_params`; the kind (int, float, float-or-None) is taken from the default. A dataclass's
+``_problem`` method checks what spans fields (a range's ends in order, a height field's vertex count).
 """
 
 from __future__ import annotations
@@ -15,13 +16,16 @@ from typing import Any
 
 import numpy as np
 
+from krl.robots.a1.constants import FOOT_FRICTION
 from krl.sim.terrains.grid import MAX_HFIELD_SIDE, grid_count
 
 __all__ = [
     "HEIGHTFIELD_MAX_HEIGHT_RANGE",
     "HEIGHTFIELD_MILD_MAX_HEIGHT",
+    "MAX_GROUND_FRICTION",
     "TERRAIN_NAMES",
     "FlatParams",
+    "GroundParams",
     "HeightfieldParams",
     "PerlinParams",
     "SeesawParams",
@@ -59,6 +63,11 @@ HEIGHTFIELD_MILD_MAX_HEIGHT: float = 0.02
 docs/terrains.md)."""
 
 
+MAX_GROUND_FRICTION: float = 5.0
+"""Largest ground friction μ a terrain accepts [-]: rubber feet on dry ground have about 1 (the thesis's),
+so a bound well above it catches typing slips only."""
+
+
 class TerrainError(ValueError):
     """An unknown terrain name or an invalid terrain parameter (the message names both)."""
 
@@ -74,15 +83,25 @@ def _p(default: float | int | None, *, gt=None, ge=None, lt=None, le=None, optio
 
 
 @dataclass(frozen=True)
-class FlatParams:
-    """Flat ground: an infinite plane at z = 0. No parameters."""
+class GroundParams:
+    """What every terrain has: the friction of its ground."""
+
+    friction: float = _p(FOOT_FRICTION, gt=0.0, le=MAX_GROUND_FRICTION)
+    """Sliding friction coefficient μ of every geom of the terrain [-] (thesis 4.2.1: 1). It is the contact's
+    μ whatever the robot's geoms say: the terrain's geoms have the higher MuJoCo ``priority``
+    (:data:`krl.sim.terrains.geoms.TERRAIN_PRIORITY`)."""
+
+
+@dataclass(frozen=True)
+class FlatParams(GroundParams):
+    """Flat ground: an infinite plane at z = 0. No parameters but the ground's friction."""
 
     def _problem(self) -> str | None:
         return None
 
 
 @dataclass(frozen=True)
-class HeightfieldParams:
+class HeightfieldParams(GroundParams):
     """PyBullet-style random height field (thesis 4.2.1 and 4.2.9, Fig. 4.2b-c)."""
 
     max_height: float | None = _p(None, gt=0.0, le=1.0, optional=True)
@@ -111,7 +130,7 @@ class HeightfieldParams:
 
 
 @dataclass(frozen=True)
-class PerlinParams:
+class PerlinParams(GroundParams):
     """Hills and mounds from fractal gradient (Perlin) noise (thesis 4.2.9, Fig. 4.2d)."""
 
     amplitude: float = _p(0.25, gt=0.0, le=5.0)
@@ -147,7 +166,7 @@ class PerlinParams:
 
 
 @dataclass(frozen=True)
-class SinusoidParams:
+class SinusoidParams(GroundParams):
     """Sinusoidal terrain z = A sin(2πx/λ) sin(2πy/λ) (thesis 5.1, Fig. 5.1d)."""
 
     max_incline: float = _p(0.2, gt=0.0, lt=math.pi / 2)
@@ -165,7 +184,7 @@ class SinusoidParams:
 
 
 @dataclass(frozen=True)
-class SlopeParams:
+class SlopeParams(GroundParams):
     """A ramp up along +x, a plateau and a ramp down, as a height field: the slopes of Fig. 4.22."""
 
     incline: float = _p(0.15, gt=0.0, lt=0.6)
@@ -190,7 +209,7 @@ class SlopeParams:
 
 
 @dataclass(frozen=True)
-class StairsParams:
+class StairsParams(GroundParams):
     """A straight flight up, a landing and a flight down, built from boxes (thesis 5.1, Fig. 5.1c)."""
 
     step_height: float = _p(0.04, gt=0.0, le=0.5)
@@ -211,7 +230,7 @@ class StairsParams:
 
 
 @dataclass(frozen=True)
-class TabletopParams:
+class TabletopParams(GroundParams):
     """A square plate balanced on a ball joint at its centre (thesis 5.1, Fig. 5.1b)."""
 
     size: float = _p(4.0, gt=0.0, le=20.0)
@@ -240,7 +259,7 @@ class TabletopParams:
 
 
 @dataclass(frozen=True)
-class SeesawParams:
+class SeesawParams(GroundParams):
     """A plank on a hinge about y at its centre, resting on its limit with the -x end down (thesis 5.1,
     Fig. 5.1a)."""
 

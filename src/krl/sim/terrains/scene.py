@@ -15,6 +15,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from krl.robots.a1.constants import FOOT_FRICTION
+from krl.sim.terrains.geoms import set_ground_friction
 from krl.sim.terrains.heightfields import build_heightfield, build_perlin, build_sinusoid, build_slope
 from krl.sim.terrains.params import (
     HEIGHTFIELD_MILD_MAX_HEIGHT,
@@ -59,7 +61,9 @@ def add_terrain(
         rng: source of every random draw; ``None`` means ``np.random.default_rng(0)`` (reproducible).
 
     Returns:
-        The :class:`Terrain`, with ``params`` fully resolved.
+        The :class:`Terrain`, with ``params`` fully resolved; ``friction`` is among them only where it is
+        not the default μ = 1, so the terrains of every record made before krl had the parameter (the
+        datasets' settings and hashes, for one) are described as they were.
 
     Raises:
         TerrainError: unknown name, unknown parameter, out-of-range value, or a spec that already has a
@@ -72,7 +76,12 @@ def add_terrain(
     if spec.material("krl_floor") is not None:
         raise TerrainError(f"terrain {name!r}: this spec already has a terrain (add_terrain called twice)")
     _add_scene(spec)
-    return builder(spec, name, resolved, rng)
+    terrain = builder(spec, name, resolved, rng)
+    set_ground_friction(spec, terrain.geom_names, resolved.friction)
+    params = {key: value for key, value in terrain.params.items() if key != "friction"}
+    if resolved.friction != FOOT_FRICTION:
+        params["friction"] = resolved.friction
+    return dataclasses.replace(terrain, params=params)
 
 
 def _registry(name: str) -> tuple[type, dict[str, Any], Callable[..., Terrain]]:

@@ -25,8 +25,8 @@ class Terrain:
     name: str
     """One of :data:`krl.sim.terrains.TERRAIN_NAMES`."""
     params: dict[str, float | int]
-    """Fully resolved parameters (defaults filled in, random draws made): passing them back to
-    :func:`add_terrain` with an rng of the same seed rebuilds the same terrain."""
+    """Fully resolved parameters (defaults filled in, random draws made; ``friction`` only where not 1):
+    passing them back to :func:`add_terrain` with an rng of the same seed rebuilds the same terrain."""
     spawn_xy: tuple[float, float]
     """Default start position of the robot's base [m]."""
     spawn_yaw: float = 0.0
