@@ -259,6 +259,47 @@ def test_a_tiny_study_trains_for_real(tmp_path, capsys):
     ).is_file()
 
 
+def test_the_alternative_study_gives_the_kernel_commands_and_measures_zero_commands(tmp_path, capsys):
+    study = STUDIES["alternative"]
+    commands = runner.trial_config(study, StudySettings.of(study), study.variants[1].overrides, 1)
+    assert commands.residual.action_size == 3 and not commands.residual.residuals
+    assert "kernel_command" in commands.observation.features
+    residual = runner.trial_config(study, StudySettings.of(study), study.variants[0].overrides, 1)
+    assert residual.residual.action_size == 12 and residual.observation.features[-2:] == (
+        "residual",
+        "foot_contact",
+    )
+    tiny = tmp_path / "tiny.json"
+    tiny.write_text(json.dumps(TINY_STUDY))
+    argv = ["agent", "study", "alternative", "--out", str(tmp_path / "s"), "--seeds", "7"]
+    argv += ["--budget", "256", "--config", str(tiny), "--workers", "1", "--jobs", "1", "--quiet", "--json"]
+    assert main(argv) == 0
+    assert json.loads(capsys.readouterr().out)[LIST]["finished"] == 2
+    assert main([*argv, "--report"]) == 0
+    report = (tmp_path / "s" / "report" / "alternative.md").read_text()
+    assert "| zero | gives the kernel zero commands" in report and "Runs finished: 2" in report
+    rows = (tmp_path / "s" / "report" / "alternative-fixed.csv").read_text().splitlines()
+    assert [row.split(",")[0] for row in rows[1:]] == ["follow", "half", "zero"]
+
+
+def test_the_gait_ablation_adds_one_drive_at_a_time_to_the_final_agent():
+    study = STUDIES["gait-ablation"]
+    configs = {
+        v.name: runner.trial_config(study, StudySettings.of(study), v.overrides, study.budget)
+        for v in study.variants
+    }
+    sizes = {name: config.residual.action_size for name, config in configs.items()}
+    assert sizes == {"residual-ext": 12, "heights": 14, "rhythm": 13, "both": 15}
+    assert all(c.residual.kernel == "ext" and c.env.pushes for c in configs.values())
+    assert reward_name(configs["both"].env.reward) == "rp" and configs["both"].num_envs == 16
+    assert configs["both"].observation.features[-2:] == ("heights", "clock_rate")
+    assert configs["residual-ext"].observation.features == (
+        *designs.CORE_FEATURES,
+        "residual",
+        "foot_contact",
+    )
+
+
 def test_the_reward_features_are_table_4_7():
     rewards = {name: reward for name, (_, reward) in designs.TRIAL_REWARDS.items()}
     assert list(rewards) == [

@@ -51,6 +51,30 @@ def test_exported_kernel_and_policy_match_numpy_inference(tmp_path, capsys):
     assert contract["joint_order"][:3] == ["FR_abduction", "FR_hip", "FR_knee"]
 
 
+def test_a_gait_driving_policy_exports_its_action_parts(tmp_path, capsys):
+    config = AgentConfig.from_json(
+        {
+            "residual": {"kernel": "ext", "drive_heights": True, "drive_rhythm": True},
+            "observation": {"features": ["base_lin_vel", "command", "heights", "clock_rate"]},
+        }
+    )
+    policy = make_policy(config, scale=0.3, seed=2)
+    path = policy.save(tmp_path / "agent-gait.npz")
+    assert main(["export", "--out", str(tmp_path / "onnx"), "--policy", str(path), "--json"]) == 0
+    files = json.loads(capsys.readouterr().out)
+    observation = np.random.default_rng(0).standard_normal((8, policy.observation_size))
+    actions = _run(files["policy"], "observation", observation)
+    assert actions.shape == (8, 15)
+    np.testing.assert_allclose(actions, policy.act(observation), atol=1e-5)
+    action = json.loads(Path(files["contract"]).read_text())["policy"]["action"]
+    assert action["size"] == 15
+    parts = {part["name"]: part for part in action["parts"]}
+    assert [(p["start"], p["stop"]) for p in action["parts"]] == [(0, 12), (12, 14), (14, 15)]
+    assert parts["heights"]["at_minus_1"] == [0.05, 0.18] and parts["heights"]["at_plus_1"] == [0.18, 0.28]
+    assert parts["clock_rate"]["at_0"] == [1.0] and parts["clock_rate"]["filter_alpha"] == 0.05
+    assert parts["residual"]["at_plus_1"] == [0.08] * 12 and "drive_filter" in action
+
+
 def test_the_ext_kernel_alone(tmp_path, capsys):
     assert main(["export", "--out", str(tmp_path), "--kernel", "ext", "--json"]) == 0
     files = json.loads(capsys.readouterr().out)

@@ -50,7 +50,7 @@ def test_the_filter_follows_eq_4_4_and_resets_per_robot():
     np.testing.assert_allclose(residual.residual[0], expected, rtol=0, atol=1e-15)
     residual.reset([1])
     assert np.all(residual.residual[1] == 0) and np.all(residual.residual[0] == expected)
-    assert residual.steps.tolist() == [3, 0]
+    assert residual.clock.tolist() == [3, 0]
 
 
 def test_actions_are_clipped_to_the_residual_bound():

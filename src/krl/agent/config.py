@@ -42,13 +42,24 @@ def _range(name: str, value: tuple[float, float], low: float = 0.0) -> None:
         raise AgentConfigError(f"{name} must satisfy {low} <= low <= high, got {value!r}")
 
 
-ACTION_SIZE: int = 3 * NUM_LEGS
-"""Numbers in one action: a residual (x, y, z) for each foot, leg-major (FR, FL, RR, RL), each in [-1, 1]."""
+RESIDUAL_ACTION_SIZE: int = 3 * NUM_LEGS
+"""Numbers of the residual part of an action: an (x, y, z) for each foot, leg-major (FR, FL, RR, RL)."""
+
+RHYTHM_RANGE: tuple[float, float] = (0.5, 2.0)
+"""Default bounds of a driven gait clock's rate, in multiples of the kernel's own: kernel-base alone walks
+at every rate in them without a fall, its speed rising with the rate up to 2 (``krl agent rhythm``,
+docs/agent-gait.md)."""
+
+GAIT_ALPHA: float = 0.05
+"""Default smoothing α of the driven gait inputs' low-pass filter: a time constant of ~0.1 s at 200 Hz,
+twice the residuals' (ours, docs/agent-gait.md)."""
 
 
 @dataclass(frozen=True)
 class ResidualConfig:
-    """The action path: kernel + low-pass-filtered residual -> IK -> PD."""
+    """The action path: kernel + low-pass-filtered residual -> IK -> PD; optionally, the policy also drives
+    the kernel's inputs and the gait clock (:mod:`krl.agent.action` lists the action's parts). With every
+    ``drive_*`` switch off (the default) it is the thesis's residual agent."""
 
     kernel: str = "base"
     """The kernel giving the reference foot targets: a shipped kernel's name or a kernel file."""
@@ -57,6 +68,23 @@ class ResidualConfig:
     Not in the thesis; chosen by measurement (docs/agent.md)."""
     alpha: float = DEFAULT_ALPHA
     """Smoothing factor α of the residuals' low-pass filter (Eq. 4.4)."""
+    residuals: bool = True
+    """The policy adds foot residuals (12 action numbers). Off only where the policy drives the kernel
+    alone (the alternative architecture of Section 4.2.8.4)."""
+    drive_command: bool = False
+    """The policy sets the velocity command the kernel receives (3 numbers, within the kernel's training
+    command ranges, 0 -> standing) instead of passing on the task's (Section 4.2.8.4); the task's command
+    stays the observation's ``command`` and the reward's target."""
+    drive_heights: bool = False
+    """The policy sets kernel-ext's step and ride heights (2 numbers, within the ranges kernel-ext was
+    trained on, 0 -> its nominal heights). Ours (docs/agent-gait.md); needs an ``ext`` kernel."""
+    drive_rhythm: bool = False
+    """The policy sets the gait clock's rate (1 number, within ``rhythm_range``, 0 -> the kernel's own
+    rate), so a swing can end sooner or later. Ours (docs/agent-gait.md)."""
+    rhythm_range: tuple[float, float] = RHYTHM_RANGE
+    """Bounds of the driven clock rate, multiples of the kernel's gait frequency (low < 1 < high)."""
+    gait_alpha: float = GAIT_ALPHA
+    """Smoothing α of the low-pass filter every driven kernel input and the clock rate pass through."""
 
     def __post_init__(self) -> None:
         if len(self.residual_bound) != 3:
@@ -65,8 +93,30 @@ class ResidualConfig:
             )
         for axis, bound in zip("xyz", self.residual_bound, strict=True):
             _positive(f"residual_bound {axis}", bound)
-        if not (isinstance(self.alpha, (int, float)) and 0 < self.alpha <= 1):
-            raise AgentConfigError(f"alpha must be in (0, 1], got {self.alpha!r}")
+        for name in ("alpha", "gait_alpha"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and 0 < value <= 1):
+                raise AgentConfigError(f"{name} must be in (0, 1], got {value!r}")
+        _range("rhythm_range", self.rhythm_range)
+        if not 0 < self.rhythm_range[0] < 1 < self.rhythm_range[1]:
+            raise AgentConfigError(f"rhythm_range must satisfy 0 < low < 1 < high, got {self.rhythm_range!r}")
+        if self.action_size == 0:
+            raise AgentConfigError("the action is empty: switch on residuals or one of the drive_* settings")
+
+    @property
+    def action_size(self) -> int:
+        """Numbers in one action, each in [-1, 1] (:func:`krl.agent.action.action_parts` names them)."""
+        return (
+            RESIDUAL_ACTION_SIZE * self.residuals
+            + 3 * self.drive_command
+            + 2 * self.drive_heights
+            + 1 * self.drive_rhythm
+        )
+
+    @property
+    def drives_gait(self) -> bool:
+        """Whether the policy drives any kernel input or the clock (else: the thesis's residual agent)."""
+        return self.drive_command or self.drive_heights or self.drive_rhythm
 
 
 @dataclass(frozen=True)
@@ -153,7 +203,8 @@ class ObservationConfig:
 
     features: tuple[str, ...] = (*CORE_FEATURES, "residual", "foot_contact")
     """Feature names in order: the thesis's final set (4.2.8.3): the core attributes, the previous
-    filtered residual and the foot contacts. Optional: ``phase``, ``kernel_targets``, ``contact_force``."""
+    filtered residual and the foot contacts. Optional: ``phase``, ``kernel_targets``, ``contact_force``
+    (Fig. 4.20), and for a policy that drives the kernel ``kernel_command``, ``heights``, ``clock_rate``."""
 
     def __post_init__(self) -> None:
         from krl.agent.observation import FEATURES

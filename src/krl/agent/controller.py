@@ -11,7 +11,7 @@ import numpy as np
 
 from krl.agent.observation import observe
 from krl.agent.policy import Policy, check_kernel_file
-from krl.agent.residual import ACTION_SIZE, ResidualController
+from krl.agent.residual import ResidualController
 from krl.control.types import JointCommand
 from krl.kernel.model import load_kernel
 from krl.sim.batch import StateBatch
@@ -31,8 +31,8 @@ class AgentController:
         path = check_kernel_file(policy, kernel_path, "policy")
         self.residual = ResidualController(load_kernel(path), policy.config.residual, 1)
         self.features = policy.config.observation.features
-        self.last_action = np.zeros(ACTION_SIZE)
-        """The policy's last action, in [-1, 1]. Shape: (ACTION_SIZE,) = (12,)."""
+        self.last_action = np.zeros(policy.config.residual.action_size)
+        """The policy's last action, in [-1, 1]. Shape: (D,) (:mod:`krl.agent.action`)."""
 
     def reset(self, state: RobotState) -> None:
         self.residual.reset()

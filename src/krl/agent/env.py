@@ -29,7 +29,7 @@ import numpy as np
 
 from krl.agent.config import AgentConfig
 from krl.agent.observation import observation_size, observation_table, observe
-from krl.agent.residual import ACTION_SIZE, ResidualController
+from krl.agent.residual import ResidualController
 from krl.agent.vec_env import BatchVecEnv
 from krl.control.commands import CommandParams
 from krl.kernel.model import load_kernel
@@ -234,10 +234,13 @@ class A1ResidualEnv(gym.Env):
     One step is one 200 Hz control step: five 1 ms physics steps of the Table 4.2 PD inside MuJoCo.
 
     ## Action space
-    ``Box(-1, 1, (12,), float32)``: per foot (FR, FL, RR, RL) an (x, y, z) residual in the base frame,
-    scaled by ``config.residual.residual_bound`` [m], low-pass filtered (Eq. 4.4, α =
+    ``Box(-1, 1, (12,), float32)`` by default: per foot (FR, FL, RR, RL) an (x, y, z) residual in the base
+    frame, scaled by ``config.residual.residual_bound`` [m], low-pass filtered (Eq. 4.4, α =
     ``config.residual.alpha``), added to the kernel's targets, then IK and PD
-    (:class:`krl.agent.residual.ResidualController`). Any other shape raises ValueError.
+    (:class:`krl.agent.residual.ResidualController`). The ``drive_*`` switches of ``config.residual``
+    append the kernel's command (3), kernel-ext's step and ride heights (2) and the gait clock's rate (1),
+    each mapped onto its range and filtered (:mod:`krl.agent.action`); ``residuals=False`` drops the 12
+    residuals. Any other shape raises ValueError.
 
     ## Observation space
     ``Box(-inf, inf, (D,), float32)``: the features of ``config.observation.features``, concatenated in that
@@ -286,7 +289,8 @@ class A1ResidualEnv(gym.Env):
         self.batch = ResidualEnvBatch(config or AgentConfig(), 1, kernel_path)
         self.render_mode = render_mode
         self._renderer = None
-        self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(ACTION_SIZE,), dtype=np.float32)
+        self.action_size = self.batch.config.residual.action_size
+        self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(self.action_size,), dtype=np.float32)
         self.observation_space = gym.spaces.Box(
             -np.inf, np.inf, shape=(self.batch.observation_size,), dtype=np.float32
         )
@@ -301,8 +305,11 @@ class A1ResidualEnv(gym.Env):
 
     def step(self, action):
         action = np.asarray(action, dtype=float)
-        if action.shape != (ACTION_SIZE,):
-            raise ValueError(f"an action has shape ({ACTION_SIZE},) (x, y, z per foot), got {action.shape}")
+        if action.shape != (self.action_size,):
+            raise ValueError(
+                f"an action has shape ({self.action_size},) (krl.agent.action lists its parts), "
+                f"got {action.shape}"
+            )
         action = action[None, :]
         observations, rewards, terminated, truncated, infos = self.batch.step(action)
         info = infos[0]
@@ -348,7 +355,7 @@ class ResidualVecEnv(BatchVecEnv):
         self, config: AgentConfig, num_envs: int, seed: int = 0, kernel_path: str | None = None
     ) -> None:
         self.batch = ResidualEnvBatch(config, num_envs, kernel_path)
-        action_space = gym.spaces.Box(-1.0, 1.0, shape=(ACTION_SIZE,), dtype=np.float32)
+        action_space = gym.spaces.Box(-1.0, 1.0, shape=(config.residual.action_size,), dtype=np.float32)
         observation_space = gym.spaces.Box(
             -np.inf, np.inf, shape=(self.batch.observation_size,), dtype=np.float32
         )

@@ -32,6 +32,9 @@ class ObservationInputs:
     """Normalised phases of the coming step. Shape: (N, 4)."""
     kernel_targets: np.ndarray
     """Kernel foot targets of the coming step [m]. Shape: (N, 4, 3)."""
+    gait_inputs: np.ndarray
+    """The kernel's command, step and ride heights [m] and the clock rate of the coming step
+    (:attr:`krl.agent.residual.ResidualController.gait_inputs`). Shape: (N, 6)."""
 
 
 @dataclass(frozen=True)
@@ -95,6 +98,21 @@ FEATURES: dict[str, Feature] = {
     ),
     "contact_force": Feature(
         4, "N", "normal contact force on each foot in the last physics step", lambda i: i.state.foot_force
+    ),
+    "kernel_command": Feature(
+        3,
+        "m/s, m/s, rad/s",
+        "the velocity command the kernel receives in the coming step (driven or the task's)",
+        lambda i: i.gait_inputs[:, :3],
+    ),
+    "heights": Feature(
+        2,
+        "m",
+        "kernel-ext's step and ride heights of the coming step (driven or nominal)",
+        lambda i: i.gait_inputs[:, 3:5],
+    ),
+    "clock_rate": Feature(
+        1, "1", "the gait clock's rate of the coming step (driven, else 1)", lambda i: i.gait_inputs[:, 5:6]
     ),
 }
 """Every observation feature, by name."""

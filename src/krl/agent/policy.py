@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from krl.agent.config import ACTION_SIZE, AgentConfig, AgentConfigError
+from krl.agent.config import AgentConfig, AgentConfigError
 from krl.agent.observation import layout, observation_size
 from krl.util.hashing import file_sha256
 from krl.util.output import npz_bytes, write_atomic
@@ -163,10 +163,9 @@ def _check(policy: Policy, header: dict[str, Any], path: Path) -> None:
                 f"policy file {path}: layer {index} has shape {weight.shape}; its input must be {width} wide"
             )
         width = weight.shape[0]
-    if width != ACTION_SIZE:
-        raise PolicyFileError(
-            f"policy file {path}: the last layer gives {width} actions, expected {ACTION_SIZE}"
-        )
+    actions = policy.config.residual.action_size
+    if width != actions:
+        raise PolicyFileError(f"policy file {path}: the last layer gives {width} actions, expected {actions}")
     arrays = [policy.obs_mean, policy.obs_var, *(a for layer in policy.layers for a in layer)]
     if not all(np.isfinite(a).all() for a in arrays) or np.any(policy.obs_var < 0):
         raise PolicyFileError(f"policy file {path}: non-finite weights or a negative variance")

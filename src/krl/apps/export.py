@@ -5,11 +5,12 @@ The graphs are built from the same NumPy arrays krl's own inference uses (``Kern
 
 * ``kernel.onnx``: ``features`` (N, n_in) float32 -> ``foot_targets`` (N, 12), the four feet's targets in the
   base frame [m], leg-major (FR, FL, RR, RL) × (x, y, z); kernel-ind maps (4N, 8) -> (4N, 3).
-* ``policy.onnx``: ``observation`` (N, D) float32 -> ``action`` (N, 12) in [-1, 1] (the deterministic
-  action: the Gaussian's mean, clipped).
+* ``policy.onnx``: ``observation`` (N, D) float32 -> ``action`` (N, A) in [-1, 1] (the deterministic
+  action: the Gaussian's mean, clipped); A = 12 for the thesis's residual agent.
 * ``contract.json``: the observation's terms in order with slices and units, the kernel's input names, the
-  action's meaning and bounds, the residual bound [m], the filter's α, the control and physics steps, the
-  foot and joint order, and the SHA-256 of the kernel and policy files.
+  action's parts in order (:mod:`krl.agent.action`: slice, unit, the values -1, 0 and +1 map to, the
+  filter each passes through), the residual bound [m] and the filter's α, the control and physics steps,
+  the foot and joint order, and the SHA-256 of the kernel and policy files.
 
 An export leaves its folder consistent: every graph is built before the first file is written, the contract
 is written last, and a kernel-only export refuses a folder that holds a ``policy.onnx`` (of an earlier
@@ -127,8 +128,6 @@ def kernel_onnx(kernel):
 
 def policy_onnx(policy):
     """The policy (observation normaliser, tanh MLP, action clip) as an ONNX model."""
-    from krl.agent.config import ACTION_SIZE
-
     graph = _Graph("observation")
     scale = 1.0 / np.sqrt(policy.obs_var + policy.obs_epsilon)
     graph.affine(scale, -policy.obs_mean * scale)
@@ -138,12 +137,12 @@ def policy_onnx(policy):
         if index < len(policy.layers) - 1:
             graph.op("Tanh")
     graph.clip(-1.0, 1.0)
-    return graph.model("observation", policy.observation_size, "action", ACTION_SIZE, "krl residual policy")
+    actions = policy.config.residual.action_size
+    return graph.model("observation", policy.observation_size, "action", actions, "krl residual policy")
 
 
 def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = None) -> dict[str, Any]:
     """What the exported graphs mean (module docstring)."""
-    from krl.agent.config import ACTION_SIZE
     from krl.agent.observation import layout
     from krl.kernel.features import input_names
     from krl.robots.a1.constants import JOINT_NAMES, LEG_NAMES
@@ -167,7 +166,6 @@ def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = 
         },
     }
     if policy is not None:
-        residual = policy.config.residual
         document["policy"] = {
             "file": POLICY_FILE,
             "sha256": file_sha256(policy_path),
@@ -175,18 +173,45 @@ def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = 
                 {"name": r["name"], "start": r["start"], "stop": r["stop"], "unit": r["unit"]}
                 for r in layout(policy.config.observation.features)
             ],
-            "action": {
-                "size": ACTION_SIZE,
-                "bounds": [-1.0, 1.0],
-                "meaning": "per foot (foot_order) an (x, y, z) base-frame residual, times residual_bound",
-                "residual_bound_m": list(residual.residual_bound),
-                "filter": "r_t = alpha * action_t * residual_bound + (1 - alpha) * r_(t-1), r_(-1) = 0",
-                "filter_alpha": residual.alpha,
-                "then": "joint targets = IK(kernel foot targets + r_t), PD at 1/physics_dt (Table 4.2 gains)",
-            },
+            "action": _action_contract(policy.config.residual, kernel),
             "kernel_sha256": policy.metadata.get("kernel_sha256"),
         }
     return document
+
+
+def _action_contract(residual, kernel) -> dict[str, Any]:
+    """The action's size, bounds and parts (:mod:`krl.agent.action`) for the contract."""
+    from krl.agent.action import action_parts
+
+    parts, start = [], 0
+    for part in action_parts(residual, kernel):
+        entry = {
+            "name": part.name,
+            "start": start,
+            "stop": start + part.size,
+            "unit": part.unit,
+            "meaning": part.description,
+            "at_minus_1": list(part.low),
+            "at_0": list(part.nominal),
+            "at_plus_1": list(part.high),
+            "filter_alpha": residual.alpha if part.name == "residual" else residual.gait_alpha,
+        }
+        parts.append(entry)
+        start += part.size
+    action: dict[str, Any] = {"size": residual.action_size, "bounds": [-1.0, 1.0], "parts": parts}
+    if residual.residuals:
+        action["residual_bound_m"] = list(residual.residual_bound)
+        action["filter"] = "r_t = alpha * action_t * residual_bound + (1 - alpha) * r_(t-1), r_(-1) = 0"
+        action["filter_alpha"] = residual.alpha
+    if residual.drives_gait:
+        action["drive_filter"] = (
+            "d_t = gait_alpha * (value(action_t) - at_0) + (1 - gait_alpha) * d_(t-1), d_(-1) = 0; "
+            "value = linear from at_minus_1 through at_0 to at_plus_1; the kernel's command and heights "
+            "and the clock rate of the next step are at_0 + d_t"
+        )
+        action["clock"] = "phase time t_(k+1) = t_k + control_dt * clock rate (1 when not driven)"
+    action["then"] = "joint targets = IK(kernel foot targets + r_t), PD at 1/physics_dt (Table 4.2 gains)"
+    return action
 
 
 def _load(policy: str | None, kernel: str | None) -> tuple[Any, Path, Any, Path | None]:

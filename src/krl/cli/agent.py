@@ -157,6 +157,27 @@ def run_stairs(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_rhythm(args: argparse.Namespace) -> int:
+    from krl.analysis.agent.rhythm import clock_rate_walks
+
+    try:
+        rates = [float(text) for text in args.rates.split(",") if text.strip()]
+    except ValueError:
+        raise CliError(f"--rates must be a comma-separated list of numbers, got {args.rates!r}") from None
+    if not rates or min(rates) <= 0:
+        raise CliError(f"--rates must be positive numbers, got {args.rates!r}")
+    from krl.task.runner import HOLD_RAMP, HOLD_SETTLE
+
+    if not args.seconds > HOLD_RAMP + HOLD_SETTLE:
+        raise CliError(
+            f"--seconds must exceed the {HOLD_RAMP + HOLD_SETTLE:g} s command ramp and settling, "
+            f"got {args.seconds}"
+        )
+    terrains = args.terrain or ("flat", "heightfield_mild")
+    emit({"walks": clock_rate_walks(rates, terrains, seconds=args.seconds, kernel=args.kernel)}, args.json)
+    return 0
+
+
 def register(subparsers) -> None:
     group = subparsers.add_parser("agent", help="the residual PPO agent").add_subparsers(
         dest="agent_command", required=True, metavar="AGENT_COMMAND"
@@ -235,3 +256,16 @@ def register(subparsers) -> None:
     p.add_argument("--out", required=True, help="output folder (stairs-diagnosis.png, .json, .csv)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run_stairs)
+
+    p = group.add_parser(
+        "rhythm",
+        help="the kernel walking with its gait clock at fixed rates: the bounds a gait-driving agent may use",
+    )
+    p.add_argument(
+        "--rates", default="0.5,0.75,1,1.25,1.5,1.75,2", help="clock rates, multiples of the kernel's own"
+    )
+    p.add_argument("--terrain", action="append", help="terrain (repeat; default flat and heightfield_mild)")
+    p.add_argument("--kernel", default="base", help="shipped kernel or kernel file (default base)")
+    p.add_argument("--seconds", type=float, default=8.0, help="walk length [s] (default 8)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=run_rhythm)

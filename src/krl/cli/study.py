@@ -76,6 +76,20 @@ def run_level_base(args: argparse.Namespace) -> int:
     return 0
 
 
+def _alternative_measurement(design, settings, out: Path, command: str) -> list[str]:
+    """The alternative study's report: the fixed command policies' rewards (the thesis's explanation of
+    its failed runs, measured); nothing for another study."""
+    if design.name != "alternative":
+        return []
+    from krl.agent.studies.runner import trial_config
+    from krl.analysis.agent.commands import fixed_command_runs, write_fixed_command_table
+
+    (commands,) = [v for v in design.variants if v.name == "commands"]
+    config = trial_config(design, settings, commands.overrides, settings.budget)
+    out.mkdir(parents=True, exist_ok=True)
+    return write_fixed_command_table(fixed_command_runs(config), out, command)
+
+
 def run_study(args: argparse.Namespace) -> int:
     from krl.agent.studies.designs import STUDIES
     from krl.agent.studies.report import study_status, write_study_report
@@ -94,9 +108,9 @@ def run_study(args: argparse.Namespace) -> int:
     try:
         if args.report:
             command = "krl " + shlex.join(args.argv)
-            written = write_study_report(
-                design, settings, url, Path(args.report_out or out / "report"), command
-            )
+            report_out = Path(args.report_out or out / "report")
+            extra = _alternative_measurement(design, settings, report_out, command)
+            written = write_study_report(design, settings, url, report_out, command, extra)
             emit(written, args.json)
             return 0
         out.mkdir(parents=True, exist_ok=True)

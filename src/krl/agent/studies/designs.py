@@ -1,4 +1,5 @@
-"""The thesis's agent studies (Sections 4.2.8.1-4.2.8.3) as data: what each trains and what it compares.
+"""The thesis's agent studies (Sections 4.2.8.1-4.2.8.4) and our gait-driving ablation as data: what each
+trains and what it compares.
 
 A study is either a **list** (named variants, each trained from every seed: Table 4.7's rewards, Fig.
 4.20's observation sets) or a **search** (random trials drawn from a space, each trained from one seed,
@@ -10,8 +11,9 @@ The base of every study is the thesis's optimisation set-up (4.2.1, Fig. 4.2b): 
 "a moderately difficult height-field terrain with perturbations 0.35cm", krl's ``heightfield_mild`` (h = 2
 cm: 3.5 mm is nearly flat for a 2 cm foot and 3.5 cm no milder than the final agent's 3-4.5 cm, the reading
 docs/terrains.md gives). No Perlin hills and no pushes: the thesis adds both only for the final agent
-(4.2.9). The budgets and the seeds are
-the thesis's; ``krl agent study --budget/--seeds/--trials`` cut them down (docs/studies.md).
+(4.2.9). The gait-driving ablation (ours) trains as the final agent does instead: its terrains, pushes,
+reward (agent-rp's) and 16 environments per worker, for 2e7 steps. The budgets and the seeds are the
+thesis's; ``krl agent study --budget/--seeds/--trials`` cut them down (docs/studies.md).
 """
 
 from __future__ import annotations
@@ -338,6 +340,58 @@ def _reward_search(name: str, title: str, space: Callable[[Any], Overrides]) -> 
     )
 
 
+# --- alternative: Section 4.2.8.4 -------------------------------------------------------------------
+
+FINAL_OPTIONAL: tuple[str, ...] = ("residual", "foot_contact")
+"""The optional attributes the state-space study kept (4.2.8.3), the observation of the alternative study's
+residual agent."""
+
+
+def _alternative_variants() -> tuple[Variant, ...]:
+    """The residual agent, as the state-space study left it, and the alternative architecture: the policy
+    sets the kernel's velocity command and adds no residual (4.2.8.4, after Kasaei et al.). It observes the
+    command it gave the kernel where the residual agent observes its residual."""
+    commands = {
+        "residual": {"residuals": False, "drive_command": True},
+        "observation": {"features": [*CORE_FEATURES, "kernel_command", "foot_contact"]},
+    }
+    return (
+        Variant("residual", "the residual agent (final observation set)", {}),
+        Variant("commands", "the policy gives the kernel its velocity command; no residuals", commands),
+    )
+
+
+# --- gait-ablation: ours (issue #25) ------------------------------------------------------------------
+
+GAIT_DRIVES: tuple[tuple[str, str, dict[str, bool], tuple[str, ...]], ...] = (
+    ("residual-ext", "residuals alone, on kernel-ext (the faithful agent's action path)", {}, ()),
+    ("heights", "+ the kernel's step and ride heights", {"drive_heights": True}, ("heights",)),
+    ("rhythm", "+ the gait clock's rate", {"drive_rhythm": True}, ("clock_rate",)),
+    (
+        "both",
+        "+ heights and the clock's rate",
+        {"drive_heights": True, "drive_rhythm": True},
+        ("heights", "clock_rate"),
+    ),
+)
+"""The gait-driving ablation's variants: (name, description, drive switches, the features observing them)."""
+
+
+def _gait_variants() -> tuple[Variant, ...]:
+    """Each drive on top of the residuals, the policy observing what it drives beside the final set."""
+    return tuple(
+        Variant(
+            name,
+            description,
+            {
+                "residual": {"kernel": "ext", **drives},
+                "observation": {"features": [*CORE_FEATURES, *FINAL_OPTIONAL, *observed]},
+            },
+        )
+        for name, description, drives, observed in GAIT_DRIVES
+    )
+
+
 STUDIES: dict[str, StudyDesign] = {
     "ppo-search": StudyDesign(
         name="ppo-search",
@@ -366,6 +420,20 @@ STUDIES: dict[str, StudyDesign] = {
         base=_study_base(CORE_FEATURES, reward="base"),
         budget=3_000_000,
         variants=_state_variants(),
+    ),
+    "alternative": StudyDesign(
+        name="alternative",
+        title="Section 4.2.8.4, Fig. 4.21",
+        base=_study_base((*CORE_FEATURES, *FINAL_OPTIONAL), reward="base"),
+        budget=3_000_000,
+        variants=_alternative_variants(),
+    ),
+    "gait-ablation": StudyDesign(
+        name="gait-ablation",
+        title="ours: what driving the gait buys (issue #25)",
+        base={"num_envs": 16},
+        budget=20_000_000,
+        variants=_gait_variants(),
     ),
 }
 """Every agent study ``krl agent study NAME`` runs, by name."""

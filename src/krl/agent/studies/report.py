@@ -40,6 +40,11 @@ THESIS_FINDINGS: dict[str, str] = {
     "0.0298, 0.0169).",
     "state-space": "Fig. 4.20 (curves only): phases and contacts help; the residual helps more, and with it "
     "the phases no longer do; the best set is the residual and the foot contacts.",
+    "alternative": "Fig. 4.21 (curves only): some runs of the command-giving agent reach targets, others "
+    "never do while their training reward keeps rising; the thesis suspects the CoM term rewards giving "
+    "the kernel zero commands, where the robot is most stable.",
+    "gait-ablation": "not in the thesis: its agent drives residuals only, and its conclusion proposes "
+    "letting the agent choose the kernel's step and ride heights and the gait's parameters.",
 }
 """What the thesis reports for each study (its studies give figures, not numbers)."""
 
@@ -87,11 +92,14 @@ def group_rows(trials: Sequence[Any], group_of) -> list[dict[str, Any]]:
 
 
 def mean_curves(trials: Sequence[Any], group_of, grid_steps: float) -> dict[str, dict[str, np.ndarray]]:
-    """Per group, the mean and std over its runs of the targets reached and success rate on a common grid
-    of env steps (every ``grid_steps``, up to the shortest run)."""
+    """Per group, the runs' targets reached, success rate and episode reward (the last missing from trials
+    recorded before it was) on a common grid of env steps (every ``grid_steps``, up to the shortest run)."""
     groups: dict[str, list[np.ndarray]] = {}
     for trial in trials:
-        curve = np.array(trial.user_attrs.get("curve", []), dtype=float).reshape(-1, 3)
+        rows = trial.user_attrs.get("curve", [])
+        curve = np.full((len(rows), len(CURVE_SERIES) + 1), np.nan)
+        for index, row in enumerate(rows):
+            curve[index, : len(row)] = [np.nan if v is None else v for v in row]
         if len(curve):
             groups.setdefault(group_of(trial), []).append(curve)
     out = {}
@@ -99,7 +107,7 @@ def mean_curves(trials: Sequence[Any], group_of, grid_steps: float) -> dict[str,
         end = min(c[-1, 0] for c in curves)
         grid = np.arange(grid_steps, end + 1, grid_steps) if end >= grid_steps else np.array([end])
         series = {}
-        for column, label in ((1, "targets"), (2, "success")):
+        for column, label in enumerate(CURVE_SERIES, start=1):
             stacked = []
             for curve in curves:
                 known = np.isfinite(curve[:, column])
@@ -109,6 +117,10 @@ def mean_curves(trials: Sequence[Any], group_of, grid_steps: float) -> dict[str,
                 series[label] = np.array(stacked)
         out[name] = {"steps": grid, **series, "runs": len(curves)}
     return out
+
+
+CURVE_SERIES: tuple[str, ...] = ("targets", "success", "reward")
+"""The series of a trial's recorded learning curve after its env steps (:func:`runner.final_metrics`)."""
 
 
 def replay_pruning(trials: Sequence[Any], pruner) -> dict[str, Any]:
@@ -125,7 +137,7 @@ def replay_pruning(trials: Sequence[Any], pruner) -> dict[str, Any]:
         replay = study.ask()
         steps = trial.user_attrs.get("env_steps", curve[-1][0] if curve else 0)
         stopped = steps
-        for step, targets, _ in curve:
+        for step, targets, *_ in curve:
             replay.report(targets, step)
             if replay.should_prune():
                 stopped = step
@@ -200,9 +212,10 @@ def _figure(path: Path, curves: dict[str, dict[str, np.ndarray]], title: str) ->
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.6))
-    for name, curve in curves.items():
-        for ax, label in zip(axes, ("targets", "success"), strict=True):
+    panels = [label for label in CURVE_SERIES if any(label in curve for curve in curves.values())]
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 3.6), squeeze=False)
+    for ax, label in zip(axes[0], panels, strict=True):
+        for name, curve in curves.items():
             if label in curve:
                 values = curve[label]
                 x = curve["steps"] / 1e6
@@ -214,17 +227,23 @@ def _figure(path: Path, curves: dict[str, dict[str, np.ndarray]], title: str) ->
                     color=line.get_color(),
                     alpha=0.15,
                 )
-    axes[0].set_title("targets reached per 60 s episode", fontsize=10)
-    axes[1].set_title("success rate (>= 2 targets, no fall)", fontsize=10)
-    for ax in axes:
+        ax.set_title(CURVE_TITLES[label], fontsize=10)
         ax.set_xlabel("env steps [1e6]")
         ax.grid(alpha=0.3)
-    axes[1].set_ylim(-0.02, 1.02)
-    axes[0].legend(fontsize=7)
+        if label == "success":
+            ax.set_ylim(-0.02, 1.02)
+    axes[0, 0].legend(fontsize=7)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     write_atomic(path, figure_bytes(fig))
     plt.close(fig)
+
+
+CURVE_TITLES: dict[str, str] = {
+    "targets": "targets reached per 60 s episode",
+    "success": "success rate (>= 2 targets, no fall)",
+    "reward": "episode reward (training)",
+}
 
 
 def _budget_line(design: StudyDesign, settings: StudySettings) -> str:
@@ -261,10 +280,16 @@ def _rows_csv(trials: Sequence[Any], group_of) -> bytes:
 
 
 def write_study_report(
-    design: StudyDesign, settings: StudySettings, url: str, out: Path, command: str = ""
+    design: StudyDesign,
+    settings: StudySettings,
+    url: str,
+    out: Path,
+    command: str = "",
+    extra: Sequence[str] = (),
 ) -> dict[str, Any]:
     """Write ``NAME.md``, ``NAME.csv`` and ``NAME.png`` (and a search's ``NAME-search.csv``) into ``out``
-    from the finished trials; returns the files and the study's status."""
+    from the finished trials, ``extra`` (Markdown lines) closing ``NAME.md``; returns the files and the
+    study's status."""
     stages = open_stages(design, settings, url)
     status = study_status(design, settings, url, stages)
     out.mkdir(parents=True, exist_ok=True)
@@ -295,6 +320,7 @@ def write_study_report(
         )
         written.append(str(out / f"{design.name}.png"))
         lines += ["", f"![{design.name}]({design.name}.png)"]
+    lines += ["", *extra] if extra else []
     write_atomic(out / f"{design.name}.md", "\n".join(lines) + "\n")
     return {
         "written": [str(out / f"{design.name}.md"), str(out / f"{design.name}.csv"), *written],

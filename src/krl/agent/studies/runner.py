@@ -228,7 +228,8 @@ def trial_config(design: StudyDesign, settings: StudySettings, overrides: dict[s
 
 def final_metrics(run: Path) -> dict[str, Any]:
     """A finished (or pruned) trial's record from its run folder: final targets reached and success rate
-    (:data:`FINAL_FRACTION`), env steps, and its learning curve (env steps, targets, success per rollout)."""
+    (:data:`FINAL_FRACTION`), env steps, and its learning curve (env steps, targets, success, episode
+    reward per rollout)."""
     import numpy as np
 
     from krl.agent.curves import STEPS_COLUMN, read_progress
@@ -237,6 +238,7 @@ def final_metrics(run: Path) -> dict[str, Any]:
     steps = np.asarray(progress[STEPS_COLUMN])
     targets = np.asarray(progress["episode/targets_reached"])
     success = np.asarray(progress["episode/success_rate"])
+    reward = np.asarray(progress["episode/reward"])
     if steps.size == 0:
         raise StudyError(f"run {run} logged no rollout with an ended episode")
     last = steps >= steps[-1] * (1 - FINAL_FRACTION)
@@ -247,7 +249,10 @@ def final_metrics(run: Path) -> dict[str, Any]:
     return {
         "targets_reached": float(np.nanmean(targets[last])),
         "success_rate": float(np.nanmean(success[last])) if np.isfinite(success[last]).any() else None,
-        "curve": [[int(s), number(t), number(r)] for s, t, r in zip(steps, targets, success, strict=True)],
+        "curve": [
+            [int(s), number(t), number(r), number(w)]
+            for s, t, r, w in zip(steps, targets, success, reward, strict=True)
+        ],
     }
 
 

@@ -30,9 +30,11 @@ TRACE_FIELDS: dict[str, str] = {
     "foot_force": "normal contact force on each foot [N]. Shape: (T, 4)",
     "ground": "terrain height under each foot's centre [m]. Shape: (T, 4)",
     "command": "velocity command (v_x, v_y, ω_z) [m/s, m/s, rad/s]. Shape: (T, 3)",
-    "action": "the policy's action in [-1, 1], leg-major x, y, z. Shape: (T, 4, 3)",
+    "action": "the policy's action in [-1, 1], its parts in order (krl.agent.action). Shape: (T, D)",
     "residual": "the filtered residual added this step, base frame [m]. Shape: (T, 4, 3)",
     "kernel_targets": "the kernel's foot targets, base frame [m]. Shape: (T, 4, 3)",
+    "gait_inputs": "the kernel's command, step and ride heights [m], clock rate for the next step "
+    "(driven, else the task's and the nominal ones). Shape: (T, 6)",
 }
 """Every array of a trace, with its units and shape (T control steps; the state is the one the controller
 saw at the step)."""
@@ -61,9 +63,10 @@ class RecordingController:
             "foot_force": state.foot_force,
             "ground": np.asarray(self.height(feet[:, 0], feet[:, 1]), dtype=float),
             "command": np.asarray(command, dtype=float),
-            "action": self.agent.last_action.reshape(4, 3),
+            "action": self.agent.last_action,
             "residual": self.agent.residual.filter.value[0],
             "kernel_targets": self.agent.last_targets,
+            "gait_inputs": self.agent.residual.gait_inputs[0],
         }
         for name, value in values.items():
             self.rows[name].append(np.array(value, copy=True))
