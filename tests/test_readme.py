@@ -82,6 +82,7 @@ SMOKE: dict[str, tuple[str, str | None]] = {
         "--jobs 1 --quiet",
         None,
     ),
+    "krl agent rhythm --json": ("--rates 1.5 --terrain flat --seconds 2.5", None),
     "krl agent run --targets 5 --json": ("--targets 1 --target-time-limit 1", None),
     "krl agent run --policy runs/agent-rp/policy.npz --terrain heightfield --video agent.mp4": (
         "--targets 1 --target-time-limit 0.3 --video-size 160x120",
@@ -98,6 +99,10 @@ SMOKE: dict[str, tuple[str, str | None]] = {
     ),
     "krl evaluate --controller kernel --push-sweep": (
         "--magnitudes 250 --attempts 1 --workers 1 --quiet",
+        None,
+    ),
+    "krl evaluate --controller kernel --friction-sweep": (
+        "--frictions 0.5 --friction-course mine.toml --workers 1 --quiet",
         None,
     ),
     "krl report": ("", None),
