@@ -122,9 +122,9 @@ def test_a_seed_group_is_one_recipe(tmp_path):
 
 def test_the_shipped_agent_rp_is_a_group_of_thesis_seeds():
     name, files = policy_artifacts("")
-    assert name == "rp" and len(files) >= 2
+    assert name == "rp" and [seed for seed, _ in files] == list(THESIS_SEEDS)
     for seed, path in files:
-        assert seed in THESIS_SEEDS and path.name == f"seed{seed}.npz"
+        assert path.name == f"seed{seed}.npz"
         policy = load_policy(path)
         assert policy.metadata["training"]["seed"] == seed
         assert policy.metadata["training"]["env_steps"] >= 20_000_000 and policy.config.num_envs == 16
