@@ -130,6 +130,26 @@ def test_the_shipped_agent_rp_is_a_group_of_thesis_seeds():
         assert policy.metadata["training"]["env_steps"] >= 20_000_000 and policy.config.num_envs == 16
 
 
+def test_a_pattern_of_run_folders_is_a_seed_group_named_before_its_seeds(tmp_path):
+    trials = tmp_path / "trials" / "list"
+    for variant, scale in (("heights", 0.1), ("rhythm", 0.2)):
+        for seed in (215, 150):
+            config = AgentConfig.from_json(
+                {"ppo": {"ent_coef": scale}}
+            )  # the variants differ in a recipe field
+            make_policy(config, seed=seed).save(trials / f"{variant}-seed{seed}" / "policy.npz")
+    name, files = policy_artifacts(str(trials / "heights-seed*"))
+    assert name == "heights" and [(seed, path.parent.name) for seed, path in files] == [
+        (150, "heights-seed150"),
+        (215, "heights-seed215"),
+    ]
+    assert policy_artifacts(str(trials / "rhythm-seed*@215"))[0] == "rhythm-seed215"
+    with pytest.raises(PolicyFileError, match="share seed 150"):
+        policy_artifacts(str(trials / "*"))
+    with pytest.raises(PolicyFileError, match="matches no policy file"):
+        policy_artifacts(str(trials / "both-seed*"))
+
+
 def test_a_runs_policy_npz_takes_its_folders_name(tmp_path):
     path = make_policy(AgentConfig()).save(tmp_path / "agent-mine-seed7" / "policy.npz")
     name, files = policy_artifacts(str(path))

@@ -203,7 +203,9 @@ def policy_artifacts(text: str) -> tuple[str, list[tuple[int | None, Path]]]:
     narrowed to one of its seeds with ``@SEED`` (``rp@215``, ``runs/agent-rp@345``).
 
     A seed group is a folder of per-seed policy files (``seed150.npz``, ...) or of run folders each holding a
-    ``policy.npz`` (what ``krl agent train`` writes); every file records its training seed and all share
+    ``policy.npz`` (what ``krl agent train`` writes), or a pattern in the path's last part matching such
+    files or run folders (a study variant's runs: ``trials/list/heights-seed*``, label ``heights``); every
+    file records its training seed and all share
     one recipe (:data:`RECIPE_FIELDS`). Returns ``(label name, [(seed or None, path), ...])``: per-seed files
     carry their seed; one file, or one seed picked with ``@``, carries None (its name ends ``-seedS``).
 
@@ -248,18 +250,29 @@ def _policy_location(text: str) -> tuple[str, Path]:
             return text, single
         raise PolicyFileError(f"krl ships no agent-{text} policy yet (train one with `krl agent train`)")
     path = Path(text)
+    if "*" in path.name:  # a pattern of run folders or files: named by what precedes its seeds
+        return path.name.split("*")[0].removesuffix("-seed").removesuffix("-").removeprefix("agent-"), path
     # a run folder's policy.npz takes the folder's name, as a kernel.npz does
     named = path.parent if path.name == "policy.npz" else path
     return (named.stem if named.is_file() else named.name).removeprefix("agent-"), path
 
 
 def _seed_group(path: Path) -> dict[int, Path]:
-    """``{seed: policy file}`` of a seed-group folder, in seed order (see :func:`policy_artifacts`)."""
-    if not path.is_dir():
+    """``{seed: policy file}`` of a seed-group folder, or of the policy files and run folders a pattern in
+    the last part of ``path`` matches (``trials/list/heights-seed*``), in seed order (see
+    :func:`policy_artifacts`)."""
+    if "*" in path.name:
+        matches = sorted(path.parent.glob(path.name))
+        found = [m if m.is_file() else m / "policy.npz" for m in matches]
+        found = [f for f in found if f.suffix == ".npz" and f.is_file()]
+        if not found:
+            raise PolicyFileError(f"{str(path)!r} matches no policy file and no run folder with a policy.npz")
+    elif not path.is_dir():
         raise PolicyFileError(f"no policy file or folder {str(path)!r}")
-    found = sorted(path.glob("*.npz")) or sorted(path.glob("*/policy.npz"))
-    if not found:
-        raise PolicyFileError(f"policy folder {path} holds no .npz policy files and no run folders")
+    else:
+        found = sorted(path.glob("*.npz")) or sorted(path.glob("*/policy.npz"))
+        if not found:
+            raise PolicyFileError(f"policy folder {path} holds no .npz policy files and no run folders")
     group: dict[int, Path] = {}
     recipe: tuple[Path, dict[str, Any]] | None = None
     for candidate in found:
