@@ -259,8 +259,9 @@ class A1ResidualEnv(gym.Env):
     The robot stands at the terrain's spawn point facing a random direction; waypoints are drawn
     ``config.env.target_distance`` m apart, ``config.env.field_margin`` m inside the field. The terrain is a
     random height field with probability ``config.env.heightfield_probability``, else Perlin hills, kept for
-    ``config.env.episodes_per_terrain`` episodes. Pushes (``config.env.pushes``) come every
-    ``push_interval`` s with a force of ``push_magnitude`` N. ``reset(seed=s)`` seeds all of these.
+    ``config.env.episodes_per_terrain`` episodes, its ground friction μ ~ U(``config.env.friction``) (1, the
+    thesis's, by default). Pushes (``config.env.pushes``) come every ``push_interval`` s with a force of
+    ``push_magnitude`` N. ``reset(seed=s)`` seeds all of these.
 
     ## Episode end
     Terminates when the robot falls (``docs/sim.md``); truncates after ``config.env.episode_time`` s (60 s:
