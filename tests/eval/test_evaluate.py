@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from krl.cli import main
-from krl.eval import evaluate
+from krl.eval import evaluate, summaries
 from krl.eval.controllers import ControllerSpecError, parse_controller
 from krl.eval.courses import load_course
 from krl.eval.episodes import PushSweep
@@ -88,7 +88,7 @@ def test_push_sweep_records_the_push(tmp_path):
     push = records[1]["metrics"]["push"]
     assert push["magnitude"] == pytest.approx(600.0)
     assert push["impulse"] == pytest.approx(600.0 * 60 * 0.001)  # 60 control steps, 1 ms each
-    rows = evaluate.summarise_push(records)
+    rows = summaries.summarise_push(records)
     assert [r["magnitude"] for r in rows] == [300.0, 600.0] and rows[0]["attempts"] == 1
 
 
@@ -127,7 +127,7 @@ def test_course_summary_by_hand():
             }
         }
 
-    summary = evaluate.summarise_course(
+    summary = summaries.summarise_course(
         [
             record(5, False, 0.1),
             record(3, True, 0.05),
@@ -325,11 +325,11 @@ def test_success_interval_is_wilsons():
     for attempts in (1, 3, 10, 50):
         for successes in range(attempts + 1):
             expected = binomtest(successes, attempts).proportion_ci(method="wilson")
-            low, high = evaluate.success_interval(successes, attempts)
+            low, high = summaries.success_interval(successes, attempts)
             assert (low, high) == pytest.approx((expected.low, expected.high), abs=1e-12)
-    assert evaluate.success_interval(10, 10)[1] == 1.0 and evaluate.success_interval(0, 10)[0] == 0.0
+    assert summaries.success_interval(10, 10)[1] == 1.0 and summaries.success_interval(0, 10)[0] == 0.0
     with pytest.raises(ValueError, match="successes <= attempts"):
-        evaluate.success_interval(11, 10)
+        summaries.success_interval(11, 10)
 
 
 def test_push_table_shows_the_attempts_and_intervals():
@@ -342,7 +342,7 @@ def test_push_table_shows_the_attempts_and_intervals():
         return {"magnitude": magnitude, "sweep": {"target": [3.0, 0.0]}, "metrics": metrics}
 
     records = [record(300.0, a < 48) for a in range(50)] + [record(600.0, a < 20) for a in range(50)]
-    rows = evaluate.summarise_push(records)
+    rows = summaries.summarise_push(records)
     assert [r["success_rate"] for r in rows] == [0.96, 0.4]
     assert rows[0]["success_low"] < 0.96 < rows[0]["success_high"] < 1.0
     pushes = report.push_rows({"agent-rp": {evaluate.PUSH_DIR: records}})
@@ -371,17 +371,17 @@ def test_push_directions_are_quarters_around_the_walk():
         }
         return {"sweep": {"target": list(target)}, "metrics": metrics}
 
-    assert [evaluate.push_direction(record(a, True)) for a in (10, 80, -170, -100, 44, 46)] == [
+    assert [summaries.push_direction(record(a, True)) for a in (10, 80, -170, -100, 44, 46)] == [
         "forward", "left", "backward", "right", "forward", "left",
     ]  # fmt: skip
-    assert evaluate.push_direction(record(100, True, target=(0.0, 3.0))) == "forward"  # walking along +y
+    assert summaries.push_direction(record(100, True, target=(0.0, 3.0))) == "forward"  # walking along +y
     turned = record(100, True)
     turned["metrics"]["push_heading"] = np.pi / 2  # walking along +y when the push came, target along +x
-    assert evaluate.push_direction(turned) == "forward"
+    assert summaries.push_direction(turned) == "forward"
     turned["metrics"]["push_heading"] = None  # the run ended before the push: the target's direction
-    assert evaluate.push_direction(turned) == "left"
+    assert summaries.push_direction(turned) == "left"
     records = [record(0, True), record(0, False), record(90, False), record(-90, True)]
-    rows = {r["direction"]: r for r in evaluate.summarise_push_directions(records)}
+    rows = {r["direction"]: r for r in summaries.summarise_push_directions(records)}
     assert set(rows) == {"forward", "left", "right"}  # no backward push: no row
     assert rows["forward"]["attempts"] == 2 and rows["forward"]["success_rate"] == 0.5
     assert rows["left"]["success_high"] < 1.0 and rows["right"]["success_low"] > 0.0

@@ -11,7 +11,7 @@ from agent_fakes import make_policy
 
 from krl.agent.config import AgentConfig
 from krl.cli import main
-from krl.eval import evaluate, report
+from krl.eval import evaluate, report, summaries
 from krl.eval.controllers import parse_controller
 from krl.eval.courses import CourseError, load_course
 from krl.eval.episodes import FRICTION_SWEEP_FRICTIONS, FrictionSweep
@@ -114,7 +114,7 @@ def test_friction_summary_by_hand():
         record("flat", 1.0, 1, True),
         record("heightfield", 0.5, 1, False, error="MPCError: gave up", targets=0),
     ]
-    rows = evaluate.summarise_friction(records)
+    rows = summaries.summarise_friction(records)
     assert [(row["course"], row["friction"]) for row in rows] == [
         ("flat", 1.0),
         ("flat", 0.5),
@@ -125,7 +125,7 @@ def test_friction_summary_by_hand():
     assert flat["targets_reached_mean"] == 4.25 and flat["success_low"] < 0.75 < flat["success_high"]
     assert flat["seeds"] == 2 and flat["success_rate_seed_std"] == pytest.approx(0.3535534, rel=1e-6)
     assert "seeds" not in rows[0] and rows[2]["fall_rate"] == 1.0  # an error counts as a fall
-    by_seed = evaluate.summarise_friction_by_seed(records)
+    by_seed = summaries.summarise_friction_by_seed(records)
     assert [(r["seed"], r["course"], r["friction"], r["success_rate"]) for r in by_seed] == [
         (1, "flat", 1.0, 1.0),
         (1, "flat", 0.5, 0.5),

@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from krl.eval import evaluate, report
+from krl.eval import evaluate, report, summaries
 
 
 def course_record(seed, start, reached, fell):
@@ -51,28 +51,28 @@ PUSHES = [push_record(150, a, a < 8) for a in range(10)] + [push_record(215, a, 
 
 
 def test_a_groups_course_row_pools_every_run_and_its_seed_rows_show_the_spread():
-    pooled = evaluate.summarise_course(COURSE)
+    pooled = summaries.summarise_course(COURSE)
     assert pooled["runs"] == 4 and pooled["targets_reached_mean"] == 4.0
     assert pooled["targets_reached_std"] == pytest.approx(2.0)  # sample std of 5, 5, 5, 1
     assert (pooled["success_rate"], pooled["fall_rate"]) == (0.75, 0.25)
-    rows = evaluate.summarise_course_by_seed(COURSE)
+    rows = summaries.summarise_course_by_seed(COURSE)
     assert [
         (r["seed"], r["runs"], r["success_rate"], r["fall_rate"], r["targets_reached_mean"]) for r in rows
     ] == [
         (150, 2, 1.0, 0.0, 5.0),
         (215, 2, 0.5, 0.5, 3.0),
     ]
-    assert evaluate.summarise_course_by_seed([{**r, "seed": None} for r in COURSE]) == []
+    assert summaries.summarise_course_by_seed([{**r, "seed": None} for r in COURSE]) == []
     table = report._seed_markdown(report.seed_rows({"agent-rp": {"stairs": COURSE}}, "stairs"))
     assert "| controller | seed 150 | seed 215 |" in table
     assert "| agent-rp | 2/2, 0 fell, 5.00 | 1/2, 1 fell, 3.00 |" in table
 
 
 def test_a_groups_push_rows_are_pooled_with_the_seeds_spread_then_one_per_seed():
-    (pooled,) = evaluate.summarise_push(PUSHES)
+    (pooled,) = summaries.summarise_push(PUSHES)
     assert pooled["attempts"] == 20 and pooled["success_rate"] == pytest.approx(0.6)  # mean of 0.8 and 0.4
     assert pooled["seeds"] == 2 and pooled["success_rate_seed_std"] == pytest.approx(0.2828427)
-    by_seed = evaluate.summarise_push_by_seed(PUSHES)
+    by_seed = summaries.summarise_push_by_seed(PUSHES)
     assert [(r["seed"], r["attempts"], r["success_rate"]) for r in by_seed] == [
         (150, 10, 0.8),
         (215, 10, 0.4),

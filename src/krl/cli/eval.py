@@ -144,7 +144,7 @@ def friction_sweep_from_args(args: argparse.Namespace):
 
 
 def run_evaluate(args: argparse.Namespace) -> int:
-    from krl.eval import evaluate
+    from krl.eval import evaluate, summaries
     from krl.eval.controllers import distinct_controllers, parse_controller
     from krl.util.progress import progress_bar
 
@@ -195,20 +195,20 @@ def run_evaluate(args: argparse.Namespace) -> int:
         entry: dict[str, Any] = {}
         for course in courses:
             runs = [r for r in mine if r.get("course") == course.name and "friction" not in r]
-            entry[course.name] = evaluate.summarise_course(runs)
+            entry[course.name] = summaries.summarise_course(runs)
             if spec.seeded:
-                entry[course.name]["by_seed"] = evaluate.summarise_course_by_seed(runs)
+                entry[course.name]["by_seed"] = summaries.summarise_course_by_seed(runs)
         if sweep is not None:
             pushes = [r for r in mine if "magnitude" in r]
-            entry["push"] = evaluate.summarise_push(pushes)
+            entry["push"] = summaries.summarise_push(pushes)
             if spec.seeded:
-                entry["push_by_seed"] = evaluate.summarise_push_by_seed(pushes)
-            entry["push_directions"] = evaluate.summarise_push_directions(pushes)
+                entry["push_by_seed"] = summaries.summarise_push_by_seed(pushes)
+            entry["push_directions"] = summaries.summarise_push_directions(pushes)
         if friction is not None:
             grounds = [r for r in mine if "friction" in r]
-            entry["friction"] = evaluate.summarise_friction(grounds)
+            entry["friction"] = summaries.summarise_friction(grounds)
             if spec.seeded:
-                entry["friction_by_seed"] = evaluate.summarise_friction_by_seed(grounds)
+                entry["friction_by_seed"] = summaries.summarise_friction_by_seed(grounds)
         entry["wall_seconds"] = round(sum(r["metrics"]["wall_seconds"] for r in mine), 1)
         summary["controllers"][spec.label] = entry
     emit(summary, args.json)

@@ -15,11 +15,9 @@ from pathlib import Path
 from typing import Any
 
 from krl.eval.courses import THESIS_COURSES
-from krl.eval.evaluate import (
-    FRICTION_DIR,
-    PUSH_DIR,
+from krl.eval.evaluate import FRICTION_DIR, PUSH_DIR, load_record
+from krl.eval.summaries import (
     PUSH_DIRECTIONS,
-    load_record,
     success_interval,
     summarise_course,
     summarise_course_by_seed,

@@ -1,0 +1,207 @@
+"""Summaries of ``krl evaluate`` records: a course's row (Tables 5.1-5.4), the push sweep's (Table 5.5) and
+its push directions, the friction sweep's, each pooled over a seed group's runs or per training seed.
+
+Pure functions of the records (:func:`krl.eval.evaluate.load_record`), shared by ``krl evaluate --json`` and
+``krl report``.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from collections.abc import Sequence
+from typing import Any
+
+
+def _mean_std(values: Sequence[float]) -> tuple[float, float]:
+    """Mean and sample standard deviation (n - 1, as the thesis's tables); std 0 for a single value."""
+    mean = statistics.fmean(values)
+    return mean, (statistics.stdev(values) if len(values) > 1 else 0.0)
+
+
+def _counts_as_fall(metrics: dict[str, Any]) -> bool:
+    """A fall, or a run that ended with an error (diverging simulation, MPC failure)."""
+    return bool(metrics["fell"] or metrics["error"] is not None)
+
+
+def summarise_course(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Mean ± std over a course's runs: reward per step, waypoints reached; success and fall rates.
+
+    A run that ended with an error (diverging simulation, MPC failure) counts as a fall.
+    """
+    metrics = [r["metrics"] for r in records]
+    if not metrics:
+        raise ValueError("no runs to summarise")
+    reward = _mean_std([m["reward_per_step"] for m in metrics])
+    targets = _mean_std([m["targets_reached"] for m in metrics])
+    distance = _mean_std([m["distance_walked"] for m in metrics])
+    finish_times = [m["time_to_finish"] for m in metrics if m["time_to_finish"] is not None]
+    return {
+        "runs": len(metrics),
+        "targets": metrics[0]["targets"],
+        "reward_per_step_mean": reward[0],
+        "reward_per_step_std": reward[1],
+        "targets_reached_mean": targets[0],
+        "targets_reached_std": targets[1],
+        "success_rate": sum(m["success"] for m in metrics) / len(metrics),
+        "fall_rate": sum(_counts_as_fall(m) for m in metrics) / len(metrics),
+        "error_runs": sum(m["error"] is not None for m in metrics),
+        "time_to_finish_mean": statistics.fmean(finish_times) if finish_times else None,
+        "distance_walked_mean": distance[0],
+        "distance_walked_std": distance[1],
+    }
+
+
+SUCCESS_CONFIDENCE_Z = 1.959963984540054
+"""Standard-normal quantile of the success rates' two-sided 95 % intervals."""
+
+
+def success_interval(successes: int, attempts: int) -> tuple[float, float]:
+    """Wilson score interval (95 %) of a success rate measured as ``successes`` of ``attempts``.
+
+    It stays inside [0, 1] and is not empty at 0 or 1 successes (10 of 10 gives 0.72-1.00), unlike the
+    normal approximation. Used for the push sweep, whose rates come from few attempts per magnitude.
+    """
+    if not 0 <= successes <= attempts or attempts < 1:
+        raise ValueError(f"need 0 <= successes <= attempts >= 1, got {successes} of {attempts}")
+    z2 = SUCCESS_CONFIDENCE_Z**2
+    rate = successes / attempts
+    centre = (rate + z2 / (2 * attempts)) / (1 + z2 / attempts)
+    half = SUCCESS_CONFIDENCE_Z * math.sqrt(rate * (1 - rate) / attempts + z2 / (4 * attempts**2))
+    half /= 1 + z2 / attempts
+    low = 0.0 if successes == 0 else max(0.0, centre - half)
+    high = 1.0 if successes == attempts else min(1.0, centre + half)
+    return low, high
+
+
+PUSH_DIRECTIONS: tuple[str, ...] = ("forward", "left", "backward", "right")
+"""Quarters of the push's horizontal direction, relative to the base's heading when the push starts
+(:func:`push_direction`): each spans 90° centred on its name (``forward``: the force's azimuth within ±45°
+of it)."""
+
+
+def push_direction(record: dict[str, Any]) -> str:
+    """Which of :data:`PUSH_DIRECTIONS` a push attempt's force (its horizontal part) points to, relative to
+    the base's heading when the push started (``push_heading``); for a record without it (written before
+    krl recorded it, or a run that ended before the push), relative to the direction of the sweep's target."""
+    metrics = record["metrics"]
+    force = metrics["push"]["force"]
+    heading = metrics.get("push_heading")
+    if heading is None:
+        target = record["sweep"]["target"]
+        heading = math.atan2(target[1], target[0])
+    relative = math.atan2(force[1], force[0]) - heading
+    quarter = round(relative / (math.pi / 2)) % 4
+    return PUSH_DIRECTIONS[quarter]
+
+
+def _success(group: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Attempts, success rate and its 95 % interval (:func:`success_interval`) of a group of runs."""
+    successes = sum(bool(r["metrics"]["success"]) for r in group)
+    low, high = success_interval(successes, len(group))
+    return {
+        "attempts": len(group),
+        "success_rate": successes / len(group),
+        "success_low": low,
+        "success_high": high,
+    }
+
+
+def summarise_push_directions(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per push direction (:func:`push_direction`), over every magnitude of the sweep: attempts,
+    success rate and its 95 % interval. Shows which pushes a controller fails, which the per-magnitude
+    rates, each of a mix of directions, do not."""
+    by_direction: dict[str, list[dict[str, Any]]] = {}
+    for record in records:
+        by_direction.setdefault(push_direction(record), []).append(record)
+    return [
+        {"direction": direction, **_success(by_direction[direction])}
+        for direction in PUSH_DIRECTIONS
+        if direction in by_direction
+    ]
+
+
+def summarise_push(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per magnitude: success rate with its 95 % interval (:func:`success_interval`), fall rate,
+    mean impulse [N·s] and Δv [m/s] of the pushes. Records of several training seeds are pooled (with equal
+    attempts per seed, the rate is the mean of the seeds' rates); their rows add ``seeds`` and
+    ``success_rate_seed_std``, the sample std of the seeds' rates."""
+    by_magnitude: dict[float, list[dict[str, Any]]] = {}
+    for record in records:
+        by_magnitude.setdefault(float(record["magnitude"]), []).append(record)
+    rows = []
+    for magnitude in sorted(by_magnitude):
+        group = by_magnitude[magnitude]
+        row = {
+            "magnitude": magnitude,
+            **_success(group),
+            "fall_rate": sum(_counts_as_fall(r["metrics"]) for r in group) / len(group),
+            "impulse": statistics.fmean(r["metrics"]["push"]["impulse"] for r in group),
+            "delta_v": statistics.fmean(r["metrics"]["push"]["delta_v"] for r in group),
+        }
+        seeds = by_seed(group)
+        if len(seeds) > 1:
+            rates = [_success(runs)["success_rate"] for runs in seeds.values()]
+            row.update(seeds=len(seeds), success_rate_seed_std=_mean_std(rates)[1])
+        rows.append(row)
+    return rows
+
+
+def by_seed(records: Sequence[dict[str, Any]]) -> dict[int, list[dict[str, Any]]]:
+    """The records of a seed group's runs by training seed, in seed order (empty for runs of one policy)."""
+    groups: dict[int, list[dict[str, Any]]] = {}
+    for record in records:
+        if record.get("seed") is not None:
+            groups.setdefault(record["seed"], []).append(record)
+    return dict(sorted(groups.items()))
+
+
+def summarise_push_by_seed(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """:func:`summarise_push` of each training seed's attempts, each row with its ``seed``."""
+    return [{"seed": seed, **row} for seed, runs in by_seed(records).items() for row in summarise_push(runs)]
+
+
+def summarise_course_by_seed(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per training seed of a course's runs: runs, waypoints reached (mean), success and fall rate."""
+    rows = []
+    for seed, runs in by_seed(records).items():
+        summary = summarise_course(runs)
+        keep = ("runs", "targets", "targets_reached_mean", "success_rate", "fall_rate")
+        rows.append({"seed": seed, **{key: summary[key] for key in keep}})
+    return rows
+
+
+def summarise_friction(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per (course, μ) of the friction sweep, courses in the records' order and μ falling: runs,
+    success rate with its 95 % interval (:func:`success_interval`), fall rate (errors count as falls) and
+    waypoints reached (mean). Records of several training seeds are pooled; their rows add ``seeds`` and
+    ``success_rate_seed_std``, the sample std of the seeds' rates."""
+    groups: dict[tuple[str, float], list[dict[str, Any]]] = {}
+    for record in records:
+        groups.setdefault((record["course"], float(record["friction"])), []).append(record)
+    courses = list(dict.fromkeys(course for course, _ in groups))
+    rows = []
+    for course, friction in sorted(groups, key=lambda key: (courses.index(key[0]), -key[1])):
+        group = groups[(course, friction)]
+        success = _success(group)
+        row = {
+            "course": course,
+            "friction": friction,
+            "runs": success.pop("attempts"),
+            **success,
+            "fall_rate": sum(_counts_as_fall(r["metrics"]) for r in group) / len(group),
+            "targets_reached_mean": statistics.fmean(r["metrics"]["targets_reached"] for r in group),
+        }
+        seeds = by_seed(group)
+        if len(seeds) > 1:
+            rates = [_success(runs)["success_rate"] for runs in seeds.values()]
+            row.update(seeds=len(seeds), success_rate_seed_std=_mean_std(rates)[1])
+        rows.append(row)
+    return rows
+
+
+def summarise_friction_by_seed(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """:func:`summarise_friction` of each training seed's runs, each row with its ``seed``."""
+    return [
+        {"seed": seed, **row} for seed, runs in by_seed(records).items() for row in summarise_friction(runs)
+    ]
