@@ -333,7 +333,7 @@ def test_success_interval_is_wilsons():
 
 
 def test_push_table_shows_the_attempts_and_intervals():
-    from krl.eval import report
+    from krl.eval import sweep_report
 
     def record(magnitude, success, azimuth=0.0):
         force = [magnitude * np.cos(azimuth), magnitude * np.sin(azimuth), 0.0]
@@ -345,12 +345,12 @@ def test_push_table_shows_the_attempts_and_intervals():
     rows = summaries.summarise_push(records)
     assert [r["success_rate"] for r in rows] == [0.96, 0.4]
     assert rows[0]["success_low"] < 0.96 < rows[0]["success_high"] < 1.0
-    pushes = report.push_rows({"agent-rp": {evaluate.PUSH_DIR: records}})
+    pushes = sweep_report.push_rows({"agent-rp": {evaluate.PUSH_DIR: records}})
     thesis = [r for r in pushes if r["source"] == "thesis"]
     assert all(
         r["attempts"] == 10 and r["success_low"] <= r["success_rate"] <= r["success_high"] for r in thesis
     )
-    table = report._push_markdown(pushes)
+    table = sweep_report.push_markdown(pushes)
     rows = [
         [c.strip() for c in line.strip("|").split("|")] for line in table.splitlines() if line[:2] == "| "
     ]
@@ -361,7 +361,7 @@ def test_push_table_shows_the_attempts_and_intervals():
 
 
 def test_push_directions_are_quarters_around_the_walk():
-    from krl.eval import report
+    from krl.eval import sweep_report
 
     def record(azimuth_deg, success, target=(3.0, 0.0)):
         azimuth = np.radians(azimuth_deg)
@@ -385,5 +385,7 @@ def test_push_directions_are_quarters_around_the_walk():
     assert set(rows) == {"forward", "left", "right"}  # no backward push: no row
     assert rows["forward"]["attempts"] == 2 and rows["forward"]["success_rate"] == 0.5
     assert rows["left"]["success_high"] < 1.0 and rows["right"]["success_low"] > 0.0
-    table = report._push_direction_markdown(report.push_direction_rows({"x": {evaluate.PUSH_DIR: records}}))
+    table = sweep_report.push_direction_markdown(
+        sweep_report.push_direction_rows({"x": {evaluate.PUSH_DIR: records}})
+    )
     assert "| x | 0.50 (2), " in table and "| – |" in table

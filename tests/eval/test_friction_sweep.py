@@ -11,7 +11,7 @@ from agent_fakes import make_policy
 
 from krl.agent.config import AgentConfig
 from krl.cli import main
-from krl.eval import evaluate, report, summaries
+from krl.eval import evaluate, summaries, sweep_report
 from krl.eval.controllers import parse_controller
 from krl.eval.courses import CourseError, load_course
 from krl.eval.episodes import FRICTION_SWEEP_FRICTIONS, FrictionSweep
@@ -132,8 +132,8 @@ def test_friction_summary_by_hand():
         (1, "heightfield", 0.5, 0.0),
         (2, "flat", 0.5, 1.0),
     ]
-    rows = report.friction_rows({"agent-mine": {evaluate.FRICTION_DIR: records}})
-    table = report._friction_markdown(rows)
+    rows = sweep_report.friction_rows({"agent-mine": {evaluate.FRICTION_DIR: records}})
+    table = sweep_report.friction_markdown(rows)
     assert (
         "| controller | μ = 1 | μ = 0.5 |" in table
         and "| agent-mine | 1.00 / 0.00 (1) | 0.75 / 0.25 (4) |" in table
@@ -186,7 +186,9 @@ def test_cli_friction_sweep_then_report(tmp_path, tiny, capsys):
     assert main(["report", "--results", str(out), "--out", str(docs), "--json"]) == 0
     written = json.loads(capsys.readouterr().out)["written"]
     assert str(docs / "friction.csv") in written and not (docs / "course-friction.csv").exists()
-    assert "Success against ground friction" in (docs / "evaluation.md").read_text()
+    assert str(docs / "friction.png") in written and (docs / "friction.png").stat().st_size > 0
+    markdown = (docs / "evaluation.md").read_text()
+    assert "Success against ground friction" in markdown and "(friction.png)" in markdown
 
 
 def test_friction_options_restate_no_default():

@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from krl.eval import evaluate, report, summaries
+from krl.eval import evaluate, report, summaries, sweep_report
 
 
 def course_record(seed, start, reached, fell):
@@ -78,7 +78,7 @@ def test_a_groups_push_rows_are_pooled_with_the_seeds_spread_then_one_per_seed()
         (215, 10, 0.4),
     ]
     assert "seeds" not in by_seed[0]
-    table = report._push_markdown(report.push_rows({"agent-rp": {evaluate.PUSH_DIR: PUSHES}}))
+    table = sweep_report.push_markdown(sweep_report.push_rows({"agent-rp": {evaluate.PUSH_DIR: PUSHES}}))
     cells = {
         row[1]: row[2:]
         for row in (

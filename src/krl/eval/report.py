@@ -3,9 +3,9 @@
 Reads ``RESULTS/<controller>/<course>/*.json``, ``RESULTS/<controller>/push/*.json`` and
 ``RESULTS/<controller>/friction/*.json`` and writes, into ``OUT``: ``evaluation.md`` (every table, the
 thesis's numbers beside ours, the commands that made the results), one CSV per table, ``courses.png``
-(success and fall rate per course and controller) and ``push.png`` (success rate against push magnitude),
-the push sweep's success by push direction (``push-direction.csv``) and the friction sweep's success and
-fall rates per ground friction (``friction.csv``).
+(success and fall rate per course and controller) and, from ``krl.eval.sweep_report``, the push sweep's
+(``push.png``: success rate against push magnitude; ``push-direction.csv``) and the friction sweep's
+(``friction.png``: success rate against ground friction) sections.
 """
 
 from __future__ import annotations
@@ -16,19 +16,10 @@ from typing import Any
 
 from krl.eval.courses import THESIS_COURSES
 from krl.eval.evaluate import FRICTION_DIR, PUSH_DIR, load_record
-from krl.eval.summaries import (
-    PUSH_DIRECTIONS,
-    success_interval,
-    summarise_course,
-    summarise_course_by_seed,
-    summarise_friction,
-    summarise_friction_by_seed,
-    summarise_push,
-    summarise_push_by_seed,
-    summarise_push_directions,
-)
-from krl.util.output import csv_bytes, figure_bytes, write_atomic
-from krl.util.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
+from krl.eval.summaries import summarise_course, summarise_course_by_seed
+from krl.eval.sweep_report import write_sweep_sections
+from krl.eval.tables import controller_table, rows_csv
+from krl.util.output import figure_bytes, write_atomic
 
 THESIS_NAMES = {
     "expert-stance0.3": "MPC (τ_stance=0.3)",
@@ -71,12 +62,6 @@ THESIS_COURSES_RESULTS: dict[str, dict[str, tuple[float, float, float, float, fl
         "Agent-base": (0.081, 0.006, 3.87, 1.4, 0.5, 0.5),
         "Agent-rp": (0.089, 0.0026, 4.75, 1.0, 0.9375, 0.0625),
     },
-}
-
-THESIS_PUSH: dict[str, tuple[float, ...]] = {  # Table 5.5, success rate at 250, 300, ..., 900 N
-    "MPC (τ_stance=0.2)": (1, 0.8, 0.9, 0.7, 0.5, 0.3, 0.4, 0.2, 0.4, 0.1, 0.2, 0, 0, 0),
-    "Kernel": (1, 1, 1, 0.8, 0.5, 0.3, 0.3, 0, 0, 0, 0, 0, 0, 0),
-    "Agent-rp": (1, 1, 1, 1, 0.9, 0.8, 0.9, 0.8, 0.7, 0.4, 0.8, 0.6, 0.3, 0.2),
 }
 
 
@@ -137,129 +122,6 @@ def course_rows(found: dict[str, dict[str, list[dict[str, Any]]]], course: str) 
     return rows
 
 
-def push_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
-    """One row per (controller, magnitude) of ours (a seed group's pooled over its seeds, then one row per
-    (seed, magnitude) with its ``seed``), then the thesis's Table 5.5."""
-    rows = []
-    for label, groups in found.items():
-        if PUSH_DIR in groups:
-            for row in summarise_push(groups[PUSH_DIR]):
-                rows.append({"source": "krl", "controller": label, **row})
-            for row in summarise_push_by_seed(groups[PUSH_DIR]):
-                rows.append({"source": "krl", "controller": label, **row})
-    for name, rates in THESIS_PUSH.items():
-        for magnitude, rate in zip(THESIS_PUSH_MAGNITUDES, rates, strict=True):
-            low, high = success_interval(round(rate * THESIS_PUSH_ATTEMPTS), THESIS_PUSH_ATTEMPTS)
-            rows.append(
-                {
-                    "source": "thesis",
-                    "controller": name,
-                    "magnitude": magnitude,
-                    "attempts": THESIS_PUSH_ATTEMPTS,
-                    "success_rate": rate,
-                    "success_low": low,
-                    "success_high": high,
-                }
-            )
-    return rows
-
-
-def push_direction_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
-    """One row per (controller, push direction) of ours, over all magnitudes (the thesis has none)."""
-    return [
-        {"controller": label, **row}
-        for label, groups in found.items()
-        if PUSH_DIR in groups
-        for row in summarise_push_directions(groups[PUSH_DIR])
-    ]
-
-
-def friction_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
-    """One row per (controller, course, μ) of the friction sweep (a seed group's pooled over its seeds,
-    then one row per (seed, course, μ) with its ``seed``); the thesis has none."""
-    rows = []
-    for label, groups in found.items():
-        records = groups.get(FRICTION_DIR, [])
-        rows += [{"controller": label, **row} for row in summarise_friction(records)]
-        rows += [{"controller": label, **row} for row in summarise_friction_by_seed(records)]
-    return rows
-
-
-def _friction_markdown(rows: list[dict[str, Any]]) -> str:
-    """One table per course: a row per controller (and per training seed), a column per μ, falling."""
-    lines = [
-        "### Success against ground friction (ours)",
-        "",
-        "The courses walked from every start with the ground's sliding friction μ (the thesis's ground: "
-        "μ = 1). Each cell: success rate / fall rate (runs); the success rates' 95 % Wilson intervals are "
-        "in `friction.csv`.",
-    ]
-    for course in dict.fromkeys(r["course"] for r in rows):
-        mine = [
-            {**r, "controller": r["controller"] + (f" seed {r['seed']}" if "seed" in r else "")}
-            for r in rows
-            if r["course"] == course
-        ]
-        frictions = sorted({r["friction"] for r in mine}, reverse=True)
-        lines += [
-            "",
-            f"Course `{course}`:",
-            "",
-            *_controller_table(
-                mine,
-                "friction",
-                frictions,
-                [f"μ = {mu:g}" for mu in frictions],
-                lambda r: f"{r['success_rate']:.2f} / {r['fall_rate']:.2f} ({r['runs']})",
-            ),
-        ]
-    return "\n".join(lines) + "\n"
-
-
-def _controller_table(
-    rows: list[dict[str, Any]], key: str, columns: Sequence[Any], headers: Sequence[str], cell
-) -> list[str]:
-    """Markdown table lines: one row per controller (in ``rows``' order), one column per value of
-    ``row[key]`` in ``columns`` (headed ``headers``) holding ``cell(row)``, or "–" where it has no row."""
-    lines = [
-        "| controller | " + " | ".join(headers) + " |",
-        "| --- | " + " | ".join("---" for _ in columns) + " |",
-    ]
-    for controller in dict.fromkeys(r["controller"] for r in rows):
-        mine = {r[key]: r for r in rows if r["controller"] == controller}
-        cells = [cell(mine[column]) if column in mine else "–" for column in columns]
-        lines.append(f"| {controller} | " + " | ".join(cells) + " |")
-    return lines
-
-
-def _push_direction_markdown(rows: list[dict[str, Any]]) -> str:
-    lines = [
-        "### Push success by direction (all magnitudes)",
-        "",
-        "The force's horizontal direction relative to the walk (origin to target), in quarters of 90°; "
-        "success rate (attempts) and 95 % Wilson interval.",
-        "",
-        *_controller_table(
-            rows,
-            "direction",
-            PUSH_DIRECTIONS,
-            PUSH_DIRECTIONS,
-            lambda r: (
-                f"{r['success_rate']:.2f} ({r['attempts']}), {r['success_low']:.2f}-{r['success_high']:.2f}"
-            ),
-        ),
-    ]
-    return "\n".join(lines) + "\n"
-
-
-def _csv(rows: list[dict[str, Any]]) -> bytes:
-    """Every key of any row is a column (thesis rows lack some of ours)."""
-    columns: list[str] = []
-    for row in rows:
-        columns += [key for key in row if key not in columns]
-    return csv_bytes(columns, [{c: row.get(c) for c in columns} for row in rows])
-
-
 def _course_markdown(course: str, rows: list[dict[str, Any]]) -> str:
     number = TABLE_NUMBERS.get(course)
     title = f"Table {number}: {course}" if number else f"Course: {course}"
@@ -303,62 +165,7 @@ def _seed_markdown(rows: list[dict[str, Any]]) -> str:
     lines = [
         "By training seed (successes of runs, falls, mean waypoints reached):",
         "",
-        *_controller_table(rows, "seed", seeds, [f"seed {seed}" for seed in seeds], cell),
-    ]
-    return "\n".join(lines) + "\n"
-
-
-def _push_markdown(rows: list[dict[str, Any]]) -> str:
-    magnitudes = sorted({row["magnitude"] for row in rows})
-    controllers: list[tuple[str, str, int | None]] = []
-    for row in rows:
-        if (row["source"], row["controller"], row.get("seed")) not in controllers:
-            controllers.append((row["source"], row["controller"], row.get("seed")))
-    header = "| source | controller | " + " | ".join(f"{m:g} N" for m in magnitudes) + " |"
-    lines = [
-        "### Table 5.5: success rate against push magnitude",
-        "",
-        header,
-        "| --- | --- | " + " | ".join("---" for _ in magnitudes) + " |",
-    ]
-    for source, controller, seed in controllers:
-        mine = {
-            r["magnitude"]: r
-            for r in rows
-            if (r["source"], r["controller"], r.get("seed")) == (source, controller, seed)
-        }
-        attempts = sorted({r["attempts"] for r in mine.values()})
-        # as many decimals as the attempts resolve: 10 attempts move a rate in steps of 0.1
-        digits = 1 if all(10 % n == 0 for n in attempts) else 2
-        cells = " | ".join(f"{mine[m]['success_rate']:.{digits}f}" if m in mine else "–" for m in magnitudes)
-        seeds = max((r.get("seeds", 1) for r in mine.values()), default=1)
-        if seed is not None:
-            controller = f"{controller} seed {seed}"
-        elif seeds > 1:
-            controller = f"{controller} (pooled over {seeds} seeds)"
-        if attempts != [THESIS_PUSH_ATTEMPTS]:
-            controller = f"{controller} ({'/'.join(map(str, attempts))} attempts)"
-        lines.append(f"| {source} | {controller} | {cells} |")
-    ours = [r for r in rows if r["source"] == "krl"]
-    if ours:
-        first = ours[0]["controller"]
-        impulses = {r["magnitude"]: r for r in ours if r["controller"] == first}
-        lines.append(
-            "| push | impulse [N·s] | "
-            + " | ".join(f"{impulses[m]['impulse']:.2f}" if m in impulses else "–" for m in magnitudes)
-            + " |"
-        )
-        lines.append(
-            "| push | Δv [m/s] | "
-            + " | ".join(f"{impulses[m]['delta_v']:.2f}" if m in impulses else "–" for m in magnitudes)
-            + " |"
-        )
-    low, high = success_interval(7, THESIS_PUSH_ATTEMPTS)
-    lines += [
-        "",
-        f"Rates of {THESIS_PUSH_ATTEMPTS} attempts unless a row says otherwise. Each rate's 95 % Wilson"
-        f" interval is in `push.csv` (`success_low`, `success_high`) and shaded in `push.png`: of"
-        f" {THESIS_PUSH_ATTEMPTS} attempts, a rate of 0.7 lies in {low:.2f}-{high:.2f}.",
+        *controller_table(rows, "seed", seeds, [f"seed {seed}" for seed in seeds], cell),
     ]
     return "\n".join(lines) + "\n"
 
@@ -391,43 +198,6 @@ def _plot_courses(path: Path, tables: dict[str, list[dict[str, Any]]]) -> None:
     plt.close(fig)
 
 
-def _plot_push(path: Path, rows: list[dict[str, Any]]) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axis = plt.subplots(figsize=(7, 4))
-    for source, style in (("krl", "-o"), ("thesis", "--x")):
-        for controller in dict.fromkeys(r["controller"] for r in rows if r["source"] == source):
-            mine = sorted(
-                (
-                    r
-                    for r in rows
-                    if r["source"] == source and r["controller"] == controller and r.get("seed") is None
-                ),
-                key=lambda r: r["magnitude"],
-            )
-            magnitudes = [r["magnitude"] for r in mine]
-            (line,) = axis.plot(
-                magnitudes,
-                [r["success_rate"] for r in mine],
-                style,
-                label=f"{controller} ({source})",
-                alpha=0.9,
-            )
-            if source == "krl":
-                low, high = [r["success_low"] for r in mine], [r["success_high"] for r in mine]
-                axis.fill_between(magnitudes, low, high, color=line.get_color(), alpha=0.12, linewidth=0)
-    axis.set_xlabel("push force [N] (one 1 ms physics step per control step for 0.3 s)")
-    axis.set_ylabel("success rate")
-    axis.set_ylim(-0.05, 1.05)
-    axis.legend(fontsize=7)
-    fig.tight_layout()
-    write_atomic(path, figure_bytes(fig))
-    plt.close(fig)
-
-
 def write_report(results: Path, out: Path, controllers: Sequence[str] | None, command: str) -> dict[str, Any]:
     """Write the tables and plots; returns what was written and the summary rows."""
     found = collect(results, controllers)
@@ -435,10 +205,7 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
     sweeps = {PUSH_DIR, FRICTION_DIR}
     course_names += sorted({c for g in found.values() for c in g} - set(THESIS_COURSES) - sweeps)
     tables = {course: course_rows(found, course) for course in course_names}
-    pushes = push_rows(found)
-    have_push = any(r["source"] == "krl" for r in pushes)
-    frictions = friction_rows(found)
-    if not tables and not have_push and not frictions:
+    if not tables and not any(sweeps & set(groups) for groups in found.values()):
         raise FileNotFoundError(f"no evaluation results in {str(results)!r}")
     written = []
     parts = [
@@ -462,32 +229,17 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
     for course, rows in tables.items():
         parts.append(_course_markdown(course, rows))
         path = out / f"course-{course}.csv"
-        write_atomic(path, _csv(rows))
+        write_atomic(path, rows_csv(rows))
         written.append(str(path))
         by_seed = seed_rows(found, course)
         if by_seed:
             parts.append(_seed_markdown(by_seed))
             path = out / f"course-{course}-seeds.csv"
-            write_atomic(path, _csv(by_seed))
+            write_atomic(path, rows_csv(by_seed))
             written.append(str(path))
-    if have_push:
-        parts.append(_push_markdown(pushes))
-        path = out / "push.csv"
-        write_atomic(path, _csv(pushes))
-        written.append(str(path))
-        _plot_push(out / "push.png", pushes)
-        written.append(str(out / "push.png"))
-        parts.append("![success against push magnitude](push.png)\n")
-        directions = push_direction_rows(found)
-        parts.append(_push_direction_markdown(directions))
-        path = out / "push-direction.csv"
-        write_atomic(path, _csv(directions))
-        written.append(str(path))
-    if frictions:
-        parts.append(_friction_markdown(frictions))
-        path = out / "friction.csv"
-        write_atomic(path, _csv(frictions))
-        written.append(str(path))
+    sweep_parts, sweep_written, pushes, frictions = write_sweep_sections(found, out)
+    parts += sweep_parts
+    written += sweep_written
     if tables:
         _plot_courses(out / "courses.png", tables)
         written.append(str(out / "courses.png"))

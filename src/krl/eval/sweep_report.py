@@ -1,0 +1,278 @@
+"""``krl report``'s sweep sections: the push sweep (Table 5.5, by magnitude and by direction) and the friction
+sweep (ours), from the records of ``krl evaluate --push-sweep`` and ``--friction-sweep``.
+
+Each section is rows (dicts, one per controller and magnitude, direction or friction; a seed group's rows
+pooled over its seeds, then one per seed), a markdown table of them and a plot.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from krl.eval.evaluate import FRICTION_DIR, PUSH_DIR
+from krl.eval.summaries import (
+    PUSH_DIRECTIONS,
+    success_interval,
+    summarise_friction,
+    summarise_friction_by_seed,
+    summarise_push,
+    summarise_push_by_seed,
+    summarise_push_directions,
+)
+from krl.eval.tables import controller_table, rows_csv
+from krl.util.output import figure_bytes, write_atomic
+from krl.util.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
+
+THESIS_PUSH: dict[str, tuple[float, ...]] = {  # Table 5.5, success rate at 250, 300, ..., 900 N
+    "MPC (τ_stance=0.2)": (1, 0.8, 0.9, 0.7, 0.5, 0.3, 0.4, 0.2, 0.4, 0.1, 0.2, 0, 0, 0),
+    "Kernel": (1, 1, 1, 0.8, 0.5, 0.3, 0.3, 0, 0, 0, 0, 0, 0, 0),
+    "Agent-rp": (1, 1, 1, 1, 0.9, 0.8, 0.9, 0.8, 0.7, 0.4, 0.8, 0.6, 0.3, 0.2),
+}
+
+
+def push_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
+    """One row per (controller, magnitude) of ours (a seed group's pooled over its seeds, then one row per
+    (seed, magnitude) with its ``seed``), then the thesis's Table 5.5."""
+    rows = []
+    for label, groups in found.items():
+        if PUSH_DIR in groups:
+            for row in summarise_push(groups[PUSH_DIR]):
+                rows.append({"source": "krl", "controller": label, **row})
+            for row in summarise_push_by_seed(groups[PUSH_DIR]):
+                rows.append({"source": "krl", "controller": label, **row})
+    for name, rates in THESIS_PUSH.items():
+        for magnitude, rate in zip(THESIS_PUSH_MAGNITUDES, rates, strict=True):
+            low, high = success_interval(round(rate * THESIS_PUSH_ATTEMPTS), THESIS_PUSH_ATTEMPTS)
+            rows.append(
+                {
+                    "source": "thesis",
+                    "controller": name,
+                    "magnitude": magnitude,
+                    "attempts": THESIS_PUSH_ATTEMPTS,
+                    "success_rate": rate,
+                    "success_low": low,
+                    "success_high": high,
+                }
+            )
+    return rows
+
+
+def push_direction_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
+    """One row per (controller, push direction) of ours, over all magnitudes (the thesis has none)."""
+    return [
+        {"controller": label, **row}
+        for label, groups in found.items()
+        if PUSH_DIR in groups
+        for row in summarise_push_directions(groups[PUSH_DIR])
+    ]
+
+
+def friction_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
+    """One row per (controller, course, μ) of the friction sweep (a seed group's pooled over its seeds,
+    then one row per (seed, course, μ) with its ``seed``); the thesis has none."""
+    rows = []
+    for label, groups in found.items():
+        records = groups.get(FRICTION_DIR, [])
+        rows += [{"controller": label, **row} for row in summarise_friction(records)]
+        rows += [{"controller": label, **row} for row in summarise_friction_by_seed(records)]
+    return rows
+
+
+def push_markdown(rows: list[dict[str, Any]]) -> str:
+    magnitudes = sorted({row["magnitude"] for row in rows})
+    controllers: list[tuple[str, str, int | None]] = []
+    for row in rows:
+        if (row["source"], row["controller"], row.get("seed")) not in controllers:
+            controllers.append((row["source"], row["controller"], row.get("seed")))
+    header = "| source | controller | " + " | ".join(f"{m:g} N" for m in magnitudes) + " |"
+    lines = [
+        "### Table 5.5: success rate against push magnitude",
+        "",
+        header,
+        "| --- | --- | " + " | ".join("---" for _ in magnitudes) + " |",
+    ]
+    for source, controller, seed in controllers:
+        mine = {
+            r["magnitude"]: r
+            for r in rows
+            if (r["source"], r["controller"], r.get("seed")) == (source, controller, seed)
+        }
+        attempts = sorted({r["attempts"] for r in mine.values()})
+        # as many decimals as the attempts resolve: 10 attempts move a rate in steps of 0.1
+        digits = 1 if all(10 % n == 0 for n in attempts) else 2
+        cells = " | ".join(f"{mine[m]['success_rate']:.{digits}f}" if m in mine else "–" for m in magnitudes)
+        seeds = max((r.get("seeds", 1) for r in mine.values()), default=1)
+        if seed is not None:
+            controller = f"{controller} seed {seed}"
+        elif seeds > 1:
+            controller = f"{controller} (pooled over {seeds} seeds)"
+        if attempts != [THESIS_PUSH_ATTEMPTS]:
+            controller = f"{controller} ({'/'.join(map(str, attempts))} attempts)"
+        lines.append(f"| {source} | {controller} | {cells} |")
+    ours = [r for r in rows if r["source"] == "krl"]
+    if ours:
+        first = ours[0]["controller"]
+        impulses = {r["magnitude"]: r for r in ours if r["controller"] == first}
+        lines.append(
+            "| push | impulse [N·s] | "
+            + " | ".join(f"{impulses[m]['impulse']:.2f}" if m in impulses else "–" for m in magnitudes)
+            + " |"
+        )
+        lines.append(
+            "| push | Δv [m/s] | "
+            + " | ".join(f"{impulses[m]['delta_v']:.2f}" if m in impulses else "–" for m in magnitudes)
+            + " |"
+        )
+    low, high = success_interval(7, THESIS_PUSH_ATTEMPTS)
+    lines += [
+        "",
+        f"Rates of {THESIS_PUSH_ATTEMPTS} attempts unless a row says otherwise. Each rate's 95 % Wilson"
+        f" interval is in `push.csv` (`success_low`, `success_high`) and shaded in `push.png`: of"
+        f" {THESIS_PUSH_ATTEMPTS} attempts, a rate of 0.7 lies in {low:.2f}-{high:.2f}.",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def push_direction_markdown(rows: list[dict[str, Any]]) -> str:
+    lines = [
+        "### Push success by direction (all magnitudes)",
+        "",
+        "The force's horizontal direction relative to the walk (origin to target), in quarters of 90°; "
+        "success rate (attempts) and 95 % Wilson interval.",
+        "",
+        *controller_table(
+            rows,
+            "direction",
+            PUSH_DIRECTIONS,
+            PUSH_DIRECTIONS,
+            lambda r: (
+                f"{r['success_rate']:.2f} ({r['attempts']}), {r['success_low']:.2f}-{r['success_high']:.2f}"
+            ),
+        ),
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def friction_markdown(rows: list[dict[str, Any]]) -> str:
+    """One table per course: a row per controller (and per training seed), a column per μ, falling."""
+    lines = [
+        "### Success against ground friction (ours)",
+        "",
+        "The courses walked from every start with the ground's sliding friction μ (the thesis's ground: "
+        "μ = 1). Each cell: success rate / fall rate (runs); the success rates' 95 % Wilson intervals are "
+        "in `friction.csv`.",
+    ]
+    for course in dict.fromkeys(r["course"] for r in rows):
+        mine = [
+            {**r, "controller": r["controller"] + (f" seed {r['seed']}" if "seed" in r else "")}
+            for r in rows
+            if r["course"] == course
+        ]
+        frictions = sorted({r["friction"] for r in mine}, reverse=True)
+        lines += [
+            "",
+            f"Course `{course}`:",
+            "",
+            *controller_table(
+                mine,
+                "friction",
+                frictions,
+                [f"μ = {mu:g}" for mu in frictions],
+                lambda r: f"{r['success_rate']:.2f} / {r['fall_rate']:.2f} ({r['runs']})",
+            ),
+        ]
+    return "\n".join(lines) + "\n"
+
+
+def plot_push(path: Path, rows: list[dict[str, Any]]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axis = plt.subplots(figsize=(7, 4))
+    for source, style in (("krl", "-o"), ("thesis", "--x")):
+        for controller in dict.fromkeys(r["controller"] for r in rows if r["source"] == source):
+            mine = sorted(
+                (
+                    r
+                    for r in rows
+                    if r["source"] == source and r["controller"] == controller and r.get("seed") is None
+                ),
+                key=lambda r: r["magnitude"],
+            )
+            magnitudes = [r["magnitude"] for r in mine]
+            (line,) = axis.plot(
+                magnitudes,
+                [r["success_rate"] for r in mine],
+                style,
+                label=f"{controller} ({source})",
+                alpha=0.9,
+            )
+            if source == "krl":
+                low, high = [r["success_low"] for r in mine], [r["success_high"] for r in mine]
+                axis.fill_between(magnitudes, low, high, color=line.get_color(), alpha=0.12, linewidth=0)
+    axis.set_xlabel("push force [N] (one 1 ms physics step per control step for 0.3 s)")
+    axis.set_ylabel("success rate")
+    axis.set_ylim(-0.05, 1.05)
+    axis.legend(fontsize=7)
+    fig.tight_layout()
+    write_atomic(path, figure_bytes(fig))
+    plt.close(fig)
+
+
+def plot_friction(path: Path, rows: list[dict[str, Any]]) -> None:
+    """Success rate against ground friction μ, one panel per course, one line per controller (pooled over a
+    seed group's seeds), its 95 % Wilson interval shaded."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    courses = list(dict.fromkeys(r["course"] for r in rows))
+    fig, axes = plt.subplots(1, len(courses), figsize=(5 * len(courses), 3.8), sharey=True, squeeze=False)
+    for axis, course in zip(axes[0], courses, strict=True):
+        pooled = [r for r in rows if r["course"] == course and "seed" not in r]
+        for controller in dict.fromkeys(r["controller"] for r in pooled):
+            mine = sorted((r for r in pooled if r["controller"] == controller), key=lambda r: r["friction"])
+            frictions = [r["friction"] for r in mine]
+            (line,) = axis.plot(frictions, [r["success_rate"] for r in mine], "-o", label=controller)
+            low, high = [r["success_low"] for r in mine], [r["success_high"] for r in mine]
+            axis.fill_between(frictions, low, high, color=line.get_color(), alpha=0.12, linewidth=0)
+        axis.set_title(f"course {course}")
+        axis.set_xlabel("ground friction μ (thesis: 1)")
+        axis.set_ylim(-0.05, 1.05)
+    axes[0][0].set_ylabel("success rate")
+    axes[0][-1].legend(fontsize=7)
+    fig.tight_layout()
+    write_atomic(path, figure_bytes(fig))
+    plt.close(fig)
+
+
+def write_sweep_sections(
+    found: dict[str, dict[str, list[dict[str, Any]]]], out: Path
+) -> tuple[list[str], list[str], list[dict[str, Any]], list[dict[str, Any]]]:
+    """The push and friction sections of ``evaluation.md`` and their files in ``out``.
+
+    Returns (markdown parts, paths written, push rows with the thesis's, friction rows); no part where a
+    sweep has no records of ours.
+    """
+    parts: list[str] = []
+    written: list[str] = []
+    pushes = push_rows(found)
+    if any(r["source"] == "krl" for r in pushes):
+        directions = push_direction_rows(found)
+        parts += [push_markdown(pushes), "![success against push magnitude](push.png)\n"]
+        parts.append(push_direction_markdown(directions))
+        write_atomic(out / "push.csv", rows_csv(pushes))
+        plot_push(out / "push.png", pushes)
+        write_atomic(out / "push-direction.csv", rows_csv(directions))
+        written += [str(out / name) for name in ("push.csv", "push.png", "push-direction.csv")]
+    frictions = friction_rows(found)
+    if frictions:
+        parts += [friction_markdown(frictions), "![success against ground friction](friction.png)\n"]
+        write_atomic(out / "friction.csv", rows_csv(frictions))
+        plot_friction(out / "friction.png", frictions)
+        written += [str(out / name) for name in ("friction.csv", "friction.png")]
+    return parts, written, pushes, frictions
