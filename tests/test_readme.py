@@ -83,6 +83,7 @@ SMOKE: dict[str, tuple[str, str | None]] = {
         None,
     ),
     "krl agent rhythm --json": ("--rates 1.5 --terrain flat --seconds 2.5", None),
+    "krl agent push --magnitude 600 --direction left --out figures/push": ("--controller kernel", None),
     "krl agent run --targets 5 --json": ("--targets 1 --target-time-limit 1", None),
     "krl agent run --policy runs/agent-rp/policy.npz --terrain heightfield --video agent.mp4": (
         "--targets 1 --target-time-limit 0.3 --video-size 160x120",

@@ -178,6 +178,23 @@ def run_rhythm(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_push(args: argparse.Namespace) -> int:
+    from krl.analysis.push import PushProbe, push_trace, write_push_report
+    from krl.eval.controllers import distinct_controllers, parse_controller
+
+    given = {} if args.at is None else {"start_time": args.at}
+    probe = PushProbe(magnitude=args.magnitude, direction=args.direction, **given)
+    specs = distinct_controllers([parse_controller(text) for text in args.controller or PUSH_CONTROLLERS])
+    runs = {spec.driven_label: push_trace(probe, spec.build()) for spec in specs}
+    written = write_push_report(probe, runs, Path(args.out))
+    emit({kind: written[kind] for kind in ("png", "json", "csv", "npz")} | written["table"], args.json)
+    return 0
+
+
+PUSH_CONTROLLERS: tuple[str, ...] = ("agent", "expert", "kernel")
+"""``krl agent push``'s controllers unless given: agent-rp's first seed, the MPC expert, kernel-base."""
+
+
 def register(subparsers) -> None:
     group = subparsers.add_parser("agent", help="the residual PPO agent").add_subparsers(
         dest="agent_command", required=True, metavar="AGENT_COMMAND"
@@ -256,6 +273,28 @@ def register(subparsers) -> None:
     p.add_argument("--out", required=True, help="output folder (stairs-diagnosis.png, .json, .csv)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run_stairs)
+
+    p = group.add_parser(
+        "push",
+        help="what controllers do through one push: speed along it, trunk height, roll, gait clock, steps",
+    )
+    p.add_argument(
+        "--controller",
+        action="append",
+        help="as krl evaluate's (a seed group drives its first seed, or NAME@SEED); repeat; "
+        f"default {', '.join(PUSH_CONTROLLERS)}",
+    )
+    p.add_argument("--magnitude", type=float, default=600.0, help="push force [N] (default 600)")
+    p.add_argument(
+        "--direction",
+        default="left",
+        choices=("left", "right", "forward", "backward"),
+        help="relative to the walk (default left)",
+    )
+    p.add_argument("--at", type=float, help="the push's start [s] (default 2.55: mid-swing)")
+    p.add_argument("--out", required=True, help="output folder (push-trace.png, .json, .csv, .npz)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=run_push)
 
     p = group.add_parser(
         "rhythm",

@@ -223,26 +223,30 @@ class PushSweep:
 
         return scripted_push(magnitude, np.random.default_rng([self.seed, attempt]), self.window)
 
+    def walk(self, controller, push, video=None) -> dict[str, Any]:
+        """The sweep's walk with ``push`` (a :class:`krl.sim.pushes.Push`): from the origin to the waypoint
+        on flat ground; the run's metrics (:func:`score_walk`)."""
+        from krl.sim.model import build_model
+        from krl.sim.robot import A1Sim
+
+        return score_walk(
+            A1Sim(build_model("flat")),
+            controller,
+            np.array([self.target]),
+            (0.0, 0.0, 0.0),
+            self.time_limit,
+            self.d_min,
+            push=push,
+            video=video,
+        )
+
 
 def score_push_attempt(
     sweep: PushSweep, controller, magnitude: float, attempt: int, video=None
 ) -> dict[str, Any]:
     """One attempt of the sweep: the run's metrics plus the push (magnitude [N], impulse [N·s], Δv [m/s])."""
-    from krl.sim.model import build_model
-    from krl.sim.robot import A1Sim
-
     push = sweep.push(magnitude, attempt)
-    metrics = score_walk(
-        A1Sim(build_model("flat")),
-        controller,
-        np.array([sweep.target]),
-        (0.0, 0.0, 0.0),
-        sweep.time_limit,
-        sweep.d_min,
-        push=push,
-        video=video,
-    )
-    return {**metrics, "push": push.summary()}
+    return {**sweep.walk(controller, push, video=video), "push": push.summary()}
 
 
 # --- the friction sweep (ours, issue #25) --------------------------------------------------------------

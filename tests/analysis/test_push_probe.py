@@ -1,0 +1,113 @@
+"""``krl agent push``: one push, the same for every controller, and the response measured from its trace."""
+
+import json
+
+import numpy as np
+import pytest
+
+from krl.analysis import push as probe_module
+from krl.analysis.push import PushProbe, push_summary, push_trace, touchdowns
+from krl.cli import main
+from krl.eval.controllers import parse_controller
+from krl.eval.episodes import score_walk
+from krl.sim.model import build_model
+from krl.sim.robot import A1Sim
+
+DT = 0.005
+
+
+def test_touchdowns_count_a_foot_after_a_real_swing_not_a_flicker():
+    time = np.arange(12) * 0.01
+    contact = np.zeros((12, 4), dtype=bool)
+    contact[:, 0] = [1, 1, 0, 0, 0, 0, 0, 1, 1, 0, 1, 1]  # a 5-step swing, then a 1-step flicker
+    contact[:, 1] = True
+    downs = touchdowns(time, contact)
+    assert downs[0].tolist() == [0.07] and [d.size for d in downs[1:]] == [0, 0, 0]
+
+
+def synthetic_trace():
+    """Walking along +x at 0.4 m/s; pushed left: 1.5 m/s across the walk for 2.5 <= t < 2.8 s; trunk at
+    0.25 m, 0.20 m at 2.9 s; feet FR and RL come down at 2.2 s and again at 2.62 s."""
+    time = np.arange(0, 5, DT)
+    velocity = np.zeros((time.size, 3))
+    velocity[:, 0] = 0.4
+    velocity[(time >= 2.5 - 1e-9) & (time < 2.8 - 1e-9), 1] = 1.5
+    base_pos = np.cumsum(velocity, axis=0) * DT
+    base_pos[:, 2] = 0.25
+    base_pos[np.argmin(np.abs(time - 2.9)), 2] = 0.20
+    contact = np.ones((time.size, 4), dtype=bool)
+    for foot in (0, 3):
+        contact[(time >= 2.1) & (time < 2.2 - 1e-9), foot] = False
+        contact[(time >= 2.5) & (time < 2.62 - 1e-9), foot] = False
+    gait = np.full((time.size, 3), np.nan)
+    return {
+        "time": time,
+        "base_pos": base_pos,
+        "velocity": velocity,
+        "rpy": np.zeros((time.size, 3)),
+        "foot_contact": contact,
+        "gait": gait,
+    }
+
+
+def test_the_response_to_a_push_by_hand():
+    probe = PushProbe(magnitude=400, direction="left", start_time=2.5)
+    summary = push_summary(probe, synthetic_trace(), {"fell": False, "success": True})
+    assert summary["peak_speed"] == pytest.approx(1.5)  # the 0.2 s average is full inside the 0.3 s push
+    assert summary["drift"] == pytest.approx(1.5 * 0.3)
+    # the 40-step average falls below 0.1 m/s when 2 of its steps are pushed ones: 2.985 s, 0.185 s after
+    assert summary["recovery_time"] == pytest.approx(0.185)
+    assert summary["min_height"] == 0.2 and summary["first_touchdown"] == pytest.approx(0.12)
+    assert summary["touchdowns"] == 2 and summary["stride_after"] is None
+    assert summary["stride_before"] is None  # one touchdown per foot before: no interval
+    assert summary["min_ride_height"] is None and summary["max_clock_rate"] is None
+    # along the walk nothing changed: the walk's own 0.4 m/s is not the push's
+    forward = PushProbe(magnitude=400, direction="forward", start_time=2.5)
+    summary = push_summary(forward, synthetic_trace(), {"fell": False, "success": True})
+    assert summary["peak_speed"] == pytest.approx(0.0, abs=1e-12) and summary["recovery_time"] == 0.0
+    assert summary["drift"] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_a_probe_refuses_what_it_cannot_do():
+    with pytest.raises(ValueError, match="unknown push direction 'up'"):
+        PushProbe(direction="up")
+    with pytest.raises(ValueError, match="push start time must lie in"):
+        PushProbe(start_time=-1.0)
+    with pytest.raises(ValueError, match="push magnitude must be a finite number"):
+        PushProbe(magnitude=float("nan"))
+
+
+def test_a_traced_push_is_the_push_sweeps_run():
+    probe = PushProbe(magnitude=300, direction="right", start_time=2.55)
+    trace, metrics = push_trace(probe, parse_controller("kernel").build())
+    sweep = probe.sweep
+    plain = score_walk(
+        A1Sim(build_model("flat")),
+        parse_controller("kernel").build(),
+        np.array([sweep.target]),
+        (0.0, 0.0, 0.0),
+        sweep.time_limit,
+        sweep.d_min,
+        push=probe.push(),
+    )
+    keep = ("fell", "success", "targets_reached", "reward_per_step", "distance_walked")
+    assert {k: metrics[k] for k in keep} == {k: plain[k] for k in keep}
+    assert trace["time"].shape == (trace["base_pos"].shape[0],) and trace["gait"].shape[1] == 3
+    pushed = (trace["time"] >= 2.55) & (trace["time"] < 2.85)
+    assert trace["velocity"][pushed, 1].min() < -0.3  # carried to the right (−y) by the push
+
+
+def test_krl_agent_push_writes_the_figure_table_and_traces(tmp_path, capsys):
+    out = tmp_path / "push"
+    argv = ["agent", "push", "--controller", "kernel", "--magnitude", "250", "--direction", "backward"]
+    assert main([*argv, "--out", str(out), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert [row["controller"] for row in result["controllers"]] == ["kernel-base"]
+    assert result["probe"]["push"]["force"] == [-250.0, 0.0, 0.0]
+    for name in ("png", "json", "csv", "npz"):
+        assert (out / f"push-trace.{name}").stat().st_size > 0
+    traces = np.load(out / "push-trace.npz")
+    assert set(traces.files) == {f"kernel-base/{field}" for field in probe_module.TRACE_FIELDS}
+    bad = tmp_path / "bad"
+    assert main(["agent", "push", "--at", "99", "--out", str(bad)]) == 2
+    assert "push start time must lie in" in capsys.readouterr().err and not bad.exists()
