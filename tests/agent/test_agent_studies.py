@@ -257,6 +257,17 @@ def test_a_tiny_study_trains_for_real(tmp_path, capsys):
     assert (
         tmp_path / "s" / "trials" / "confirm" / f"trial{status['best'][0]['trial']}-seed7" / "policy.npz"
     ).is_file()
+    # --report alone reads the settings the study started with; other settings are still refused
+    assert main(["agent", "study", "ppo-search", "--out", str(tmp_path / "s"), "--report", "--json"]) == 0
+    json.loads(capsys.readouterr().out)
+    report = (tmp_path / "s" / "report" / "ppo-search.md").read_text()
+    assert "Budget: 256 env steps per trial, seeds 7; 1 trials, best 1 confirmed for 256" in report
+    assert (
+        main(["agent", "study", "ppo-search", "--out", str(tmp_path / "s"), "--report", "--budget", "9"]) == 2
+    )
+    assert "started with other settings" in capsys.readouterr().err
+    design = STUDIES["ppo-search"]
+    assert runner.stored_settings(design, sqlite(tmp_path)) is None and not (tmp_path / "study.db").exists()
 
 
 def test_the_alternative_study_gives_the_kernel_commands_and_measures_zero_commands(tmp_path, capsys):

@@ -53,6 +53,19 @@ def _work(name: str, settings, out: str, url: str, heartbeat: float, quiet: bool
     work(STUDIES[name], settings, Path(out), url, heartbeat, log=log, progress=not quiet)
 
 
+SETTINGS_OPTIONS: tuple[str, ...] = (
+    "budget",
+    "confirm_budget",
+    "seeds",
+    "trials",
+    "top",
+    "sampler",
+    "pruner",
+    "config",
+)
+"""The options a study records and refuses to change. ``--report`` without any of them reports the study
+with the settings it was started with."""
+
 LEVEL_POLICIES: tuple[str, ...] = ("agent-base=base", "agent-rp=rp@150")
 """The policies ``level-base`` compares unless ``--policy`` is given: the shipped agent-base and seed 150 of
 the shipped agent-rp."""
@@ -93,7 +106,7 @@ def _alternative_measurement(design, settings, out: Path, command: str) -> list[
 def run_study(args: argparse.Namespace) -> int:
     from krl.agent.studies.designs import STUDIES
     from krl.agent.studies.report import study_status, write_study_report
-    from krl.agent.studies.runner import StudyError
+    from krl.agent.studies.runner import StudyError, stored_settings
     from krl.util.parallel import usable_cores
 
     if args.name == "level-base":
@@ -107,6 +120,8 @@ def run_study(args: argparse.Namespace) -> int:
     jobs = args.jobs or max(1, usable_cores() // max(1, settings.workers))
     try:
         if args.report:
+            if not any(getattr(args, name) is not None for name in SETTINGS_OPTIONS):
+                settings = stored_settings(design, url) or settings
             command = "krl " + shlex.join(args.argv)
             report_out = Path(args.report_out or out / "report")
             extra = _alternative_measurement(design, settings, report_out, command)
@@ -167,7 +182,11 @@ def register(group) -> None:
         default=60.0,
         help="seconds between a running trial's heartbeats; a trial silent for 3 is retried (default 60)",
     )
-    p.add_argument("--report", action="store_true", help="write the tables and figures of what has finished")
+    p.add_argument(
+        "--report",
+        action="store_true",
+        help="write the tables and figures of what has finished (with the settings the study started with)",
+    )
     p.add_argument(
         "--policy",
         action="append",

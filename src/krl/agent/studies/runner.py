@@ -112,6 +112,24 @@ class StudySettings:
         return data
 
 
+def stored_settings(design: StudyDesign, url: str) -> StudySettings | None:
+    """The settings the study ``design`` in storage ``url`` was started with (how its trials train aside);
+    None if it has not been started there. Creates nothing."""
+    import optuna
+
+    if url.startswith("sqlite:///") and not Path(url.removeprefix("sqlite:///")).exists():
+        return None
+    optuna.logging.set_verbosity(optuna.logging.ERROR)
+    try:
+        study = optuna.load_study(study_name=design.name, storage=study_storage(url))
+    except KeyError:
+        return None
+    stored = study.user_attrs.get("settings")
+    if stored is None:
+        return None
+    return StudySettings(**{**stored, "seeds": tuple(stored["seeds"]), "shared": stored["shared"] or None})
+
+
 def pruner(name: str, budget: int):
     """The Optuna pruner ``--pruner name`` stands for, for trials of ``budget`` env steps: the median rule
     after 5 trials and 20 % of the budget, successive halving from an eighth of it, or none."""

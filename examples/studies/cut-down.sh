@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Chapter 4's agent studies at the cut-down budget of docs/studies.md ("What this 2-core machine runs"):
+# about 5e7 env steps in all, 7-8 h on 2 cores. Every study resumes where it stopped, and a finished trial
+# is never re-run, so after an interruption run this again. Then the reports go to docs/results/agent.
+#
+#   nohup examples/studies/cut-down.sh > runs/cut-down.log 2>&1 &
+#
+# OUT and REPORT may be set in the environment; any other `krl agent study` option (--storage for many
+# machines, --jobs) is passed on: examples/studies/cut-down.sh --storage postgresql://...
+set -euo pipefail
+OUT=${OUT:-runs/agent-studies}
+REPORT=${REPORT:-docs/results/agent}
+SEEDS=150,215
+study() {
+  local name=$1
+  shift
+  krl agent study "$name" --out "$OUT/$name" --config examples/studies/cut-down.json --quiet "$@"
+}
+
+# the search without pruning, so its report can replay the median pruner on whole curves
+study ppo-search --trials 16 --budget 500000 --top 3 --seeds "$SEEDS" --confirm-budget 1000000 --pruner none "${@}"
+study reward-features --seeds "$SEEDS" --budget 500000 "${@}"
+study reward-rbf --trials 10 --budget 500000 --top 2 --seeds "$SEEDS" --confirm-budget 500000 "${@}"
+study reward-weights --trials 10 --budget 500000 --top 2 --seeds "$SEEDS" --confirm-budget 500000 "${@}"
+study state-space --seeds "$SEEDS" --budget 500000 "${@}"
+study alternative --seeds "$SEEDS" --budget 1000000 "${@}"
+
+for name in ppo-search reward-features reward-rbf reward-weights state-space alternative; do
+  krl agent study "$name" --out "$OUT/$name" --report --report-out "$REPORT" "${@}"
+done
+krl agent study level-base --report-out "$REPORT"
