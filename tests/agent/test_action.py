@@ -46,6 +46,14 @@ def test_the_action_size_counts_the_switched_on_parts():
     assert ResidualConfig(residuals=False, drive_command=True).action_size == 3
     names = [p.name for p in action_parts(ResidualConfig(**ALL_DRIVES), load_model("ext"))]
     assert names == ["residual", "command", "heights", "clock_rate"]
+    steering = ResidualConfig(drive_steer=True, drive_heights=True, drive_rhythm=True)
+    assert steering.action_size == 18
+    assert [p.name for p in action_parts(steering, load_model("ext"))] == [
+        "residual",
+        "steer",
+        "heights",
+        "clock_rate",
+    ]
 
 
 def test_zero_drives_reproduce_the_residual_agent_bit_for_bit():
@@ -55,6 +63,22 @@ def test_zero_drives_reproduce_the_residual_agent_bit_for_bit():
     config = ResidualConfig(kernel="ext", drive_heights=True, drive_rhythm=True)
     driven = _rollout(config, np.concatenate([residuals, np.zeros((150, 2, 3))], axis=2))
     np.testing.assert_array_equal(driven, faithful)
+    config = ResidualConfig(kernel="ext", drive_steer=True, drive_heights=True, drive_rhythm=True)
+    steered = _rollout(config, np.concatenate([residuals, np.zeros((150, 2, 6))], axis=2))
+    np.testing.assert_array_equal(steered, faithful)  # the task's commands lie in the kernel's ranges
+
+
+def test_steering_offsets_the_tasks_command_within_the_kernels_ranges():
+    config = ResidualConfig(residuals=False, drive_steer=True, gait_alpha=1.0)
+    controller = ResidualController(load_model("base"), config, 1)
+    sims = SimBatch([build_model("flat")])
+    command = np.array([[0.3, 0.1, 0.4]])
+    controller.prepare(sims.states, command)
+    np.testing.assert_array_equal(controller.kernel_command, command)
+    controller.joint_targets(np.array([[1.0, -1.0, 0.5]]))  # offsets (0.5, -0.3, 0.25) from the next step
+    np.testing.assert_allclose(controller.gait_inputs[0, :3], [0.5, -0.3, 0.25])
+    controller.prepare(sims.states, command)
+    np.testing.assert_allclose(controller.kernel_command[0], [0.5, -0.2, 0.5])  # (0.8, -0.2, 0.65) clipped
 
 
 def test_driven_inputs_are_bounded_and_low_pass_filtered():
@@ -106,6 +130,7 @@ def test_the_drive_features_observe_what_the_kernel_receives():
         ({"rhythm_range": (1.0, 1.5)}, None, "rhythm_range must satisfy"),
         ({"gait_alpha": 0.0}, None, r"gait_alpha must be in \(0, 1\]"),
         ({"drive_heights": True}, "base", "drive_heights needs kernel-ext"),
+        ({"drive_command": True, "drive_steer": True}, None, "drive_command and drive_steer both set"),
     ],
 )
 def test_bad_drive_settings_are_refused(kwargs, kernel, message):

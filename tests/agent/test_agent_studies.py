@@ -13,6 +13,7 @@ import optuna
 import pytest
 from agent_fakes import LOG_COLUMNS, TINY_STUDY
 
+from krl.agent.config import ResidualConfig
 from krl.agent.studies import designs, runner
 from krl.agent.studies.designs import STUDIES, StudyDesign, Variant
 from krl.agent.studies.report import replay_pruning, write_study_report
@@ -300,7 +301,9 @@ def test_the_gait_ablation_adds_one_drive_at_a_time_to_the_final_agent():
         for v in study.variants
     }
     sizes = {name: config.residual.action_size for name, config in configs.items()}
-    assert sizes == {"residual-ext": 12, "heights": 14, "rhythm": 13, "both": 15}
+    assert sizes == {"residual-ext": 12, "heights": 14, "rhythm": 13, "both": 15, "steer-both": 18}
+    assert configs["steer-both"].residual.drive_steer and configs["both"].residual.gait_alpha == 0.5
+    assert configs["residual-ext"].residual.gait_alpha == ResidualConfig().gait_alpha  # nothing to filter
     assert all(c.residual.kernel == "ext" and c.env.pushes for c in configs.values())
     assert reward_name(configs["both"].env.reward) == "rp" and configs["both"].num_envs == 16
     assert configs["both"].observation.features[-2:] == ("heights", "clock_rate")

@@ -8,6 +8,7 @@ part       size unit            what (-1 / 0 / +1 map to ``low`` / ``nominal`` /
 ========== ==== =============== ============================================================================
 residual   12   m               per foot (FR, FL, RR, RL) an (x, y, z) base-frame residual: ± residual_bound
 command    3    m/s, m/s, rad/s the velocity command fed to the kernel: its training command ranges, 0 at 0
+steer      3    m/s, m/s, rad/s an offset added to the task's command before the kernel: ± the ranges' highs
 heights    2    m               kernel-ext's step and ride heights: their training ranges, nominal at 0
 clock_rate 1    1               the gait clock's rate: ``rhythm_range``, 1 (the kernel's own rhythm) at 0
 ========== ==== =============== ============================================================================
@@ -30,7 +31,7 @@ from krl.kernel.settings import training_settings
 
 __all__ = ["DRIVE_PARTS", "ActionPart", "action_parts"]
 
-DRIVE_PARTS: tuple[str, ...] = ("command", "heights", "clock_rate")
+DRIVE_PARTS: tuple[str, ...] = ("command", "steer", "heights", "clock_rate")
 """The parts that drive the kernel's inputs or the clock, in action order."""
 
 
@@ -87,14 +88,25 @@ def action_parts(config: ResidualConfig, kernel: Kernel) -> tuple[ActionPart, ..
             )
         )
     settings = training_settings(kernel)
+    ranges = (settings.command.vx_range, settings.command.vy_range, settings.command.yaw_rate_range)
     if config.drive_command:
-        ranges = (settings.command.vx_range, settings.command.vy_range, settings.command.yaw_rate_range)
         parts.append(
             ActionPart(
                 "command",
                 "m/s, m/s, rad/s",
                 "(v_x, v_y, yaw rate) fed to the kernel instead of the task's command",
                 tuple(r[0] for r in ranges),
+                (0.0, 0.0, 0.0),
+                tuple(r[1] for r in ranges),
+            )
+        )
+    if config.drive_steer:
+        parts.append(
+            ActionPart(
+                "steer",
+                "m/s, m/s, rad/s",
+                "an offset (v_x, v_y, yaw rate) to the task's command, the sum clipped to its ranges",
+                tuple(-r[1] for r in ranges),
                 (0.0, 0.0, 0.0),
                 tuple(r[1] for r in ranges),
             )

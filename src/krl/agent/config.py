@@ -75,6 +75,11 @@ class ResidualConfig:
     """The policy sets the velocity command the kernel receives (3 numbers, within the kernel's training
     command ranges, 0 -> standing) instead of passing on the task's (Section 4.2.8.4); the task's command
     stays the observation's ``command`` and the reward's target."""
+    drive_steer: bool = False
+    """The policy adds an offset to the task's velocity command before the kernel (3 numbers, ± the kernel's
+    training command range's upper bounds, 0 -> none; the sum clipped to those ranges): steering the
+    kernel's steps, as a capture step does after a push. Ours (docs/agent-gait.md); not with
+    ``drive_command``, which sets the command whole."""
     drive_heights: bool = False
     """The policy sets kernel-ext's step and ride heights (2 numbers, within the ranges kernel-ext was
     trained on, 0 -> its nominal heights). Ours (docs/agent-gait.md); needs an ``ext`` kernel."""
@@ -102,6 +107,10 @@ class ResidualConfig:
             raise AgentConfigError(f"rhythm_range must satisfy 0 < low < 1 < high, got {self.rhythm_range!r}")
         if self.action_size == 0:
             raise AgentConfigError("the action is empty: switch on residuals or one of the drive_* settings")
+        if self.drive_command and self.drive_steer:
+            raise AgentConfigError(
+                "drive_command and drive_steer both set the kernel's command: switch on one of them"
+            )
 
     @property
     def action_size(self) -> int:
@@ -109,6 +118,7 @@ class ResidualConfig:
         return (
             RESIDUAL_ACTION_SIZE * self.residuals
             + 3 * self.drive_command
+            + 3 * self.drive_steer
             + 2 * self.drive_heights
             + 1 * self.drive_rhythm
         )
@@ -116,7 +126,7 @@ class ResidualConfig:
     @property
     def drives_gait(self) -> bool:
         """Whether the policy drives any kernel input or the clock (else: the thesis's residual agent)."""
-        return self.drive_command or self.drive_heights or self.drive_rhythm
+        return self.drive_command or self.drive_steer or self.drive_heights or self.drive_rhythm
 
 
 @dataclass(frozen=True)

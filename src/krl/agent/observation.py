@@ -33,7 +33,7 @@ class ObservationInputs:
     kernel_targets: np.ndarray
     """Kernel foot targets of the coming step [m]. Shape: (N, 4, 3)."""
     gait_inputs: np.ndarray
-    """The kernel's command, step and ride heights [m] and the clock rate of the coming step
+    """The driven command (or steering offset), step and ride heights [m] and clock rate of the coming step
     (:attr:`krl.agent.residual.ResidualController.gait_inputs`). Shape: (N, 6)."""
 
 
@@ -102,7 +102,8 @@ FEATURES: dict[str, Feature] = {
     "kernel_command": Feature(
         3,
         "m/s, m/s, rad/s",
-        "the velocity command the kernel receives in the coming step (driven or the task's)",
+        "the driven command columns of the coming step: the kernel's command (drive_command) or the offset "
+        "to the task's (drive_steer); 0 when neither",
         lambda i: i.gait_inputs[:, :3],
     ),
     "heights": Feature(

@@ -68,7 +68,16 @@ class ResidualController:
         self.filter = LowPassFilter((num_robots, NUM_LEGS, 3), config.alpha)
         drives = [part for part in self.parts if part.name in DRIVE_PARTS]
         self._nominal = np.array([0.0, 0.0, 0.0, trained.step_height, trained.ride_height, 1.0])
-        self._drive_columns = {"command": slice(0, 3), "heights": slice(3, 5), "clock_rate": slice(5, 6)}
+        self._drive_columns = {
+            "command": slice(0, 3),
+            "steer": slice(0, 3),
+            "heights": slice(3, 5),
+            "clock_rate": slice(5, 6),
+        }
+        ranges = training_settings(kernel).command
+        self._command_low, self._command_high = (
+            np.array([ranges.vx_range[k], ranges.vy_range[k], ranges.yaw_rate_range[k]]) for k in (0, 1)
+        )
         self.drive_filter = LowPassFilter((num_robots, sum(p.size for p in drives)), config.gait_alpha)
         """The drive parts' deviations from their nominal values, filtered (``gait_alpha``)."""
         self.clock = np.zeros(num_robots)
@@ -93,9 +102,10 @@ class ResidualController:
 
     @property
     def gait_inputs(self) -> np.ndarray:
-        """The kernel's command, step height [m], ride height [m] and the clock rate for the coming step:
-        the filtered drives where driven, else the task's command, the kernel's nominal heights and 1.
-        Shape: (N, 6), columns (v_x, v_y, ω_z, step height, ride height, clock rate)."""
+        """The filtered drives for the coming step: the kernel's command (``drive_command``) or the offset to
+        the task's (``drive_steer``), else 0; step height [m] and ride height [m], else the kernel's nominal
+        ones; the clock rate, else 1. Shape: (N, 6), columns (v_x, v_y, ω_z, step height, ride height,
+        clock rate); :attr:`kernel_command` holds the command the kernel received."""
         values = np.tile(self._nominal, (self.num_robots, 1))
         filtered, start = self.drive_filter.value, 0
         for part in self.parts:
@@ -124,7 +134,11 @@ class ResidualController:
         rate = 1.0
         if self.config.drives_gait:
             inputs = self.gait_inputs[rows]
-            kernel_command = inputs[:, :3] if self.config.drive_command else command
+            kernel_command = command
+            if self.config.drive_command:
+                kernel_command = inputs[:, :3]
+            elif self.config.drive_steer:
+                kernel_command = np.clip(command + inputs[:, :3], self._command_low, self._command_high)
             step_height, ride_height, rate = inputs[:, 3], inputs[:, 4], inputs[:, 5]
         self.clock[rows] += rate
         phases = leg_phases(self.clock[rows] * CONTROL_DT, self.gait)

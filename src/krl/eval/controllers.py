@@ -11,6 +11,7 @@
 | ``agent:base`` | a shipped agent by name |
 | ``agent:rp@215`` | one seed of a seed group (label ``agent-rp-seed215``) |
 | ``agent:PATH`` | a policy file (``krl agent train`` output) or a seed group (per-seed files or runs) |
+| ``gait:capture=1,rate=2`` | kernel-ext driven by a scripted rule after pushes (:mod:`krl.agent.scripted`) |
 
 Each kind is one entry of :data:`CONTROLLER_KINDS` (parse, build, report title), so a new kind joins by
 adding one. A :class:`ControllerSpec` is plain data, so worker processes rebuild the controller from it;
@@ -255,6 +256,40 @@ def _build_agent(spec: ControllerSpec, seed: int | None):
     return AgentController(load_policy(spec.artifact(seed).path, check_kernel=False))
 
 
+# --- gait: a scripted rule driving kernel-ext's gait (krl.agent.scripted) ---------------------------------
+
+_GAIT_OPTIONS = ("capture", "rate", "ride", "step", "threshold", "hold", "alpha")
+
+
+def _parse_gait(text: str, rest: str) -> ControllerSpec:
+    from krl.agent.scripted import GaitRule, ScriptedGait
+
+    options: dict[str, float] = {}
+    for item in filter(None, (part.strip() for part in rest.split(","))):
+        key, sep, value = item.partition("=")
+        if not sep or key not in _GAIT_OPTIONS:
+            raise ControllerSpecError(
+                f"controller {text!r}: gait options are {', '.join(k + '=VALUE' for k in _GAIT_OPTIONS)}, "
+                f"got {item!r}"
+            )
+        try:
+            options[key] = float(value)
+        except ValueError:
+            raise ControllerSpecError(f"controller {text!r}: {key} must be a number, got {value!r}") from None
+    try:
+        ScriptedGait(GaitRule(**options))
+    except ValueError as error:
+        raise ControllerSpecError(f"controller {text!r}: {error}") from None
+    label = "gait" + "".join(f"-{key}{value:g}" for key, value in sorted(options.items()))
+    return ControllerSpec("gait", label, tuple(sorted(options.items())))
+
+
+def _build_gait(spec: ControllerSpec, seed: int | None):
+    from krl.agent.scripted import GaitRule, ScriptedGait
+
+    return ScriptedGait(GaitRule(**dict(spec.options)))
+
+
 def _user_label(kind: str, name: str, shipped: tuple[str, ...], sha256: str) -> str:
     """The label of a user's file named ``name`` (module docstring): ``KIND-NAME``, or ``KIND-NAME-HASH``
     where NAME is one of the ``shipped`` models' names."""
@@ -290,6 +325,7 @@ CONTROLLER_KINDS: dict[str, ControllerKind] = {
     "expert": ControllerKind(_parse_expert, _build_expert, "MPC"),
     "kernel": ControllerKind(_parse_kernel, _build_kernel, "Kernel"),
     "agent": ControllerKind(_parse_agent, _build_agent, "Agent"),
+    "gait": ControllerKind(_parse_gait, _build_gait, "Scripted gait"),
 }
 """Every kind of controller ``krl evaluate`` knows, by the name before the colon of a spec."""
 

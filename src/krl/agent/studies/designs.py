@@ -373,8 +373,27 @@ GAIT_DRIVES: tuple[tuple[str, str, dict[str, bool], tuple[str, ...]], ...] = (
         {"drive_heights": True, "drive_rhythm": True},
         ("heights", "clock_rate"),
     ),
+    (
+        "steer-both",
+        "+ steering the kernel's command, heights and the clock's rate",
+        {"drive_steer": True, "drive_heights": True, "drive_rhythm": True},
+        ("kernel_command", "heights", "clock_rate"),
+    ),
 )
-"""The gait-driving ablation's variants: (name, description, drive switches, the features observing them)."""
+"""The gait-driving ablation's variants: (name, description, drive switches, the features observing them).
+``steer-both`` (a capture step's steering beside the issue's four) is there because scripted rules
+through one push found steering with a faster clock and a lower ride to keep kernel-ext up where no drive
+alone did (docs/agent-gait.md)."""
+
+GAIT_ABLATION_ALPHA: float = 0.5
+"""The drive filter's α in the ablation's driving variants: a scripted rule steering, stepping faster and
+lowering the ride kept kernel-ext up through a 600 N lateral push at α = 0.2, 0.5 and 1, and fell at the
+default 0.05 (a 0.1 s lag beside a 0.3 s push); docs/agent-gait.md."""
+
+
+def _drive_filter(drives: dict[str, bool]) -> dict[str, float]:
+    """The ablation's drive filter setting for a variant with ``drives`` (none without any)."""
+    return {"gait_alpha": GAIT_ABLATION_ALPHA} if drives else {}
 
 
 def _gait_variants() -> tuple[Variant, ...]:
@@ -384,7 +403,11 @@ def _gait_variants() -> tuple[Variant, ...]:
             name,
             description,
             {
-                "residual": {"kernel": "ext", **drives},
+                "residual": {
+                    "kernel": "ext",
+                    **drives,
+                    **({"gait_alpha": GAIT_ABLATION_ALPHA} if drives else {}),
+                },
                 "observation": {"features": [*CORE_FEATURES, *FINAL_OPTIONAL, *observed]},
             },
         )
