@@ -269,6 +269,10 @@ def test_a_tiny_study_trains_for_real(tmp_path, capsys):
     assert "started with other settings" in capsys.readouterr().err
     design = STUDIES["ppo-search"]
     assert runner.stored_settings(design, sqlite(tmp_path)) is None and not (tmp_path / "study.db").exists()
+    assert main(["agent", "study", "state-space", "--out", str(tmp_path / "none"), "--report"]) == 2
+    error = capsys.readouterr().err
+    assert "study state-space has not been started in sqlite:///" in error and error.count("\n") == 1
+    assert not (tmp_path / "none").exists()
 
 
 def test_the_alternative_study_gives_the_kernel_commands_and_measures_zero_commands(tmp_path, capsys):

@@ -120,8 +120,11 @@ def run_study(args: argparse.Namespace) -> int:
     jobs = args.jobs or max(1, usable_cores() // max(1, settings.workers))
     try:
         if args.report:
+            stored = stored_settings(design, url)
+            if stored is None:
+                raise CliError(f"study {design.name} has not been started in {url}: nothing to report")
             if not any(getattr(args, name) is not None for name in SETTINGS_OPTIONS):
-                settings = stored_settings(design, url) or settings
+                settings = stored
             command = "krl " + shlex.join(args.argv)
             report_out = Path(args.report_out or out / "report")
             extra = _alternative_measurement(design, settings, report_out, command)
