@@ -95,6 +95,7 @@ class PushProbe:
         return np.array([x, y, 0.0])
 
     def push(self) -> Push:
+        """The push (:class:`krl.sim.pushes.Push`): at the trunk's origin, in the push sweep's mode."""
         return Push(self.start_time, self.magnitude * self.unit, np.zeros(3), self.duration)
 
 
