@@ -66,12 +66,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     # GLFW (MuJoCo's rendering backend when no other is chosen) reports a failure to start as Python
     # warnings, several lines before the one-line error that says what to install
     warnings.filterwarnings("ignore", module="glfw")
+    from krl.sim.render import RenderError, import_mujoco
+
+    try:
+        import_mujoco()  # before anything that imports it, so a backend that cannot load is one line
+    except RenderError as error:
+        print(f"krl: error: {error}", file=sys.stderr)
+        return EXIT_USAGE
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     args.argv = argv
     from krl.eval.evaluate import EvaluationError
-    from krl.sim.render import RenderError
     from krl.sim.robot import SimulationUnstableError
 
     try:
