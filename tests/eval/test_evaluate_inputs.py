@@ -1,6 +1,7 @@
 """krl evaluate's inputs: checked before anything is written; a controller is known by its files' content."""
 
 import json
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -146,3 +147,21 @@ def test_the_shipped_policy_and_its_path_are_evaluated_once(tmp_path, tiny, caps
     assert (summary["runs"], summary["ran"]) == (1, 1) and list(summary["controllers"]) == ["agent-rp"]
     assert [row["seed"] for row in summary["controllers"]["agent-rp"]["tiny"]["by_seed"]] == [150]
     assert sorted(path.name for path in out.iterdir()) == ["agent-rp"]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (
+            "expert:swing=0.3",
+            "controller 'expert:swing=0.3': expert options are stance=VALUE, step=VALUE, ride=VALUE",
+        ),
+        ("expert:stance", "expert options are stance=VALUE"),
+        ("expert:stance=fast", "stance must be a number, got 'fast'"),
+        ("expert:step=inf", "step must be a number, got 'inf'"),
+        ("gait:ride=nan", "ride must be a number, got 'nan'"),
+    ],
+)
+def test_a_controllers_numeric_options_are_known_and_finite(text, message):
+    with pytest.raises(ControllerSpecError, match=re.escape(message)):
+        parse_controller(text)

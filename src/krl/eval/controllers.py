@@ -159,6 +159,27 @@ class ControllerKind:
     """Name in reports."""
 
 
+def _number_options(text: str, kind: str, rest: str, known: tuple[str, ...]) -> dict[str, float]:
+    """The ``key=VALUE,...`` options after a controller's kind, each a finite number and one of ``known``;
+    ControllerSpecError (one line naming ``text``) otherwise."""
+    options: dict[str, float] = {}
+    for item in filter(None, (part.strip() for part in rest.split(","))):
+        key, sep, value = item.partition("=")
+        if not sep or key not in known:
+            raise ControllerSpecError(
+                f"controller {text!r}: {kind} options are "
+                f"{', '.join(k + '=VALUE' for k in known)}, got {item!r}"
+            )
+        try:
+            number = float(value)
+        except ValueError:
+            number = math.nan
+        if not math.isfinite(number):
+            raise ControllerSpecError(f"controller {text!r}: {key} must be a number, got {value!r}")
+        options[key] = number
+    return options
+
+
 # --- expert ----------------------------------------------------------------------------------------
 
 _EXPERT_OPTIONS = {"stance": "stance_duration", "step": "step_height", "ride": "ride_height"}
@@ -168,19 +189,7 @@ def _parse_expert(text: str, rest: str) -> ControllerSpec:
     from krl.control.expert import ExpertParams
 
     options: dict[str, float] = {"stance_duration": ExpertParams.stance_duration}
-    for item in filter(None, (part.strip() for part in rest.split(","))):
-        key, sep, value = item.partition("=")
-        if not sep or key not in _EXPERT_OPTIONS:
-            raise ControllerSpecError(
-                f"controller {text!r}: expert options are "
-                f"{', '.join(k + '=VALUE' for k in _EXPERT_OPTIONS)}, got {item!r}"
-            )
-        try:
-            number = float(value)
-        except ValueError:
-            number = math.nan
-        if not math.isfinite(number):
-            raise ControllerSpecError(f"controller {text!r}: {key} must be a number, got {value!r}")
+    for key, number in _number_options(text, "expert", rest, tuple(_EXPERT_OPTIONS)).items():
         options[_EXPERT_OPTIONS[key]] = number
     try:
         ExpertParams(**options)
@@ -264,18 +273,7 @@ _GAIT_OPTIONS = ("capture", "rate", "ride", "step", "threshold", "hold", "alpha"
 def _parse_gait(text: str, rest: str) -> ControllerSpec:
     from krl.agent.scripted import GaitRule, ScriptedGait
 
-    options: dict[str, float] = {}
-    for item in filter(None, (part.strip() for part in rest.split(","))):
-        key, sep, value = item.partition("=")
-        if not sep or key not in _GAIT_OPTIONS:
-            raise ControllerSpecError(
-                f"controller {text!r}: gait options are {', '.join(k + '=VALUE' for k in _GAIT_OPTIONS)}, "
-                f"got {item!r}"
-            )
-        try:
-            options[key] = float(value)
-        except ValueError:
-            raise ControllerSpecError(f"controller {text!r}: {key} must be a number, got {value!r}") from None
+    options = _number_options(text, "gait", rest, _GAIT_OPTIONS)
     try:
         ScriptedGait(GaitRule(**options))
     except ValueError as error:
