@@ -147,13 +147,20 @@ def _collect_stance(tau: str) -> Row:
     )
 
 
+_COURSE_CAMERAS: dict[str, str] = {"slope": " --azimuth 90 --elevation -8"}
+"""Cameras other than ``krl render``'s default: a ramp along x shows its rise only from the side."""
+
+
 def _course_picture(course: str) -> Row:
     """The picture of ``course`` in ``docs/figures/courses``."""
     return Row(
         f"course-{course}",
         f"picture of the {course} course",
         0.1,
-        (f"render --course {course}", "--out {docs}/figures/courses/" + course + ".png"),
+        (
+            f"render --course {course}{_COURSE_CAMERAS.get(course, '')}",
+            "--out {docs}/figures/courses/" + course + ".png",
+        ),
     )
 
 
