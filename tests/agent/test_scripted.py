@@ -48,6 +48,8 @@ def test_a_gait_spec_names_its_options_and_refuses_bad_ones_in_one_line():
     for text, message in (
         ("gait:foo=1", "gait options are capture=VALUE"),
         ("gait:rate=9", "clock_rate value 9.0 lies outside"),
+        ("gait:ride=0.06", r"ride height value 0.06 lies outside the drive's range \[0.18, 0.28\]"),
+        ("gait:step=0.25", r"step height value 0.25 lies outside the drive's range \[0.05, 0.18\]"),
         ("gait:ride=x", "ride must be a number"),
         ("gait:hold=0", "hold must be a number > 0"),
     ):

@@ -74,11 +74,14 @@ class ScriptedGait:
         )
         self.residual = ResidualController(load_model("ext"), config, 1)
         self.parts = {part.name: part for part in self.residual.parts}
-        for part, value in (("clock_rate", rule.rate), ("heights", rule.step), ("heights", rule.ride)):
-            if value is not None:
-                low, high = min(self.parts[part].low), max(self.parts[part].high)
-                if not low <= value <= high:
-                    raise ValueError(f"{part} value {value} lies outside the drive's range [{low}, {high}]")
+        for name, part, index, value in (
+            ("clock_rate", "clock_rate", 0, rule.rate),
+            ("step height", "heights", 0, rule.step),
+            ("ride height", "heights", 1, rule.ride),
+        ):
+            low, high = self.parts[part].low[index], self.parts[part].high[index]
+            if value is not None and not low <= value <= high:
+                raise ValueError(f"{name} value {value} lies outside the drive's range [{low}, {high}]")
 
         self._since: float | None = None
         """When the robot was first carried [s]; None while the rule is not acting."""
