@@ -50,6 +50,12 @@ class RenderError(RuntimeError):
     """Offscreen rendering is not available (no OpenGL backend)."""
 
 
+def _first_line(error: BaseException | str) -> str:
+    """The first line of an error's message (its type's name when it has none)."""
+    text = str(error).strip()
+    return text.splitlines()[0] if text else type(error).__name__
+
+
 def import_mujoco() -> None:
     """Import ``mujoco``, or raise :class:`RenderError` in one line when its ``MUJOCO_GL`` backend cannot
     load (an unknown value, or ``egl``/``osmesa`` without the library: MuJoCo imports the backend with
@@ -58,18 +64,17 @@ def import_mujoco() -> None:
         import mujoco  # noqa: F401
     except (RuntimeError, ImportError, AttributeError, OSError) as error:
         backend = os.environ.get("MUJOCO_GL", "unset")
-        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
         raise RenderError(
             f"MuJoCo could not load its rendering backend MUJOCO_GL={backend} ({type(error).__name__}: "
-            f"{first}); set MUJOCO_GL=osmesa ({OSMESA_INSTALL}), or MUJOCO_GL=disable where nothing is "
-            "rendered"
+            f"{_first_line(error)}); set MUJOCO_GL=osmesa ({OSMESA_INSTALL}), or MUJOCO_GL=disable where "
+            "nothing is rendered"
         ) from None
 
 
 def render_unavailable(error: BaseException | str) -> str:
     """The one-line message of a renderer that could not start."""
     backend = os.environ.get("MUJOCO_GL", "unset")
-    first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+    first = _first_line(error)
     if not has_display() and not ctypes.util.find_library("OSMesa"):
         return f"offscreen rendering needs the OSMesa library (libOSMesa not found): {OSMESA_INSTALL}"
     return (
