@@ -1,5 +1,6 @@
 """krl evaluate's inputs: checked before anything is written; a controller is known by its files' content."""
 
+import hashlib
 import json
 import re
 import shutil
@@ -165,3 +166,43 @@ def test_the_shipped_policy_and_its_path_are_evaluated_once(tmp_path, tiny, caps
 def test_a_controllers_numeric_options_are_known_and_finite(text, message):
     with pytest.raises(ControllerSpecError, match=re.escape(message)):
         parse_controller(text)
+
+
+def test_a_group_that_gains_a_seed_keeps_the_records_of_the_others(tmp_path, tiny, capsys):
+    group = per_seed_folder(tmp_path / "agent-mine", [150])
+    out = tmp_path / "out"
+    argv = evaluate_argv(out, "--controller", f"agent:{group}", "--course", str(tiny))
+    assert main(argv) == 0
+    (record,) = out.glob("*/tiny/start0-seed150.json")
+    first = record.read_bytes()
+    own_file = sha256((group / "policy-seed150.npz").read_bytes())
+    assert json.loads(first)["controller"]["model_sha256"] == own_file
+    make_policy(AgentConfig(), seed=215).save(group / "policy-seed215.npz")
+    capsys.readouterr()
+    assert main(argv) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert (summary["ran"], summary["stored"]) == (1, 1)
+    assert record.read_bytes() == first
+
+
+def test_records_that_named_the_whole_group_are_kept_while_its_files_are_unchanged(tmp_path, tiny, capsys):
+    group = per_seed_folder(tmp_path / "agent-mine", [150, 215])
+    out = tmp_path / "out"
+    argv = evaluate_argv(out, "--controller", f"agent:{group}", "--course", str(tiny))
+    assert main(argv) == 0
+    files = [sha256((group / f"policy-seed{seed}.npz").read_bytes()) for seed in (150, 215)]
+    group_hash = sha256(f"150:{files[0]}\n215:{files[1]}".encode())
+    for record in out.glob("*/tiny/*.json"):  # as krl wrote a group's records before they named one file
+        data = json.loads(record.read_text())
+        data["controller"].update(model_sha256=group_hash, seeds=[150, 215])
+        record.write_text(json.dumps(data))
+    capsys.readouterr()
+    assert main(argv) == 0
+    assert json.loads(capsys.readouterr().out)["stored"] == 2
+    make_policy(AgentConfig(), scale=0.1, seed=215).save(group / "policy-seed215.npz")
+    assert main(argv) == 2
+    assert "was made by a different controller than this run" in capsys.readouterr().err
+
+
+def sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()

@@ -68,6 +68,14 @@ class Artifact:
         return cls(str(path.resolve()), hashlib.sha256(path.read_bytes()).hexdigest(), seed)
 
 
+def _files_hash(artifacts: Sequence[Artifact]) -> str:
+    """SHA-256 naming files' content: the one file's, or the hash of every file's seed and hash."""
+    if len(artifacts) == 1:
+        return artifacts[0].sha256
+    joined = "\n".join(f"{a.seed}:{a.sha256}" for a in artifacts)
+    return hashlib.sha256(joined.encode()).hexdigest()
+
+
 @dataclass(frozen=True)
 class ControllerSpec:
     """What to build in each run."""
@@ -100,12 +108,7 @@ class ControllerSpec:
     @property
     def content_hash(self) -> str | None:
         """SHA-256 naming the artifacts' content: the one file's, or the hash of every file's hash."""
-        if not self.artifacts:
-            return None
-        if len(self.artifacts) == 1:
-            return self.artifacts[0].sha256
-        joined = "\n".join(f"{a.seed}:{a.sha256}" for a in self.artifacts)
-        return hashlib.sha256(joined.encode()).hexdigest()
+        return _files_hash(self.artifacts) if self.artifacts else None
 
     def artifact(self, seed: int | None = None) -> Artifact:
         """The file for a run of ``seed``: the only one of a controller that is not seeded; a seeded
@@ -134,17 +137,38 @@ class ControllerSpec:
         """What reports call this controller."""
         return CONTROLLER_KINDS[self.kind].title
 
-    def describe(self) -> dict[str, Any]:
-        """JSON-ready description, stored with every result."""
+    def describe(self, seed: int | None = None) -> dict[str, Any]:
+        """JSON-ready description of what a run of training seed ``seed`` is built from, stored with every
+        result. A seeded controller's run names its own seed's file alone, so a group that gains or loses
+        a seed keeps the records of the others; without ``seed`` it names the whole group and its seeds."""
+        one_seed = self.seeded and seed is not None
         description = {
             "kind": self.kind,
             "label": self.label,
             "options": dict(self.options),
-            "model_sha256": self.content_hash,
+            "model_sha256": self.artifact(seed).sha256 if one_seed else self.content_hash,
         }
-        if self.seeded:
+        if self.seeded and not one_seed:
             description["seeds"] = list(self.seeds)
         return description
+
+    def described_as(self, stored: dict[str, Any], seed: int | None) -> bool:
+        """Whether a stored description is this controller's for a run of ``seed``: :meth:`describe`'s, or
+        the form records of a seed group had before they named one seed's file (the whole group's hash and
+        its seeds), which matches where this group's files of those seeds hash the same."""
+        if stored == self.describe(seed):
+            return True
+        legacy = isinstance(stored, dict) and isinstance(stored.get("seeds"), list)
+        if not (legacy and self.seeded and seed is not None):
+            return False
+        then = {**stored, "model_sha256": None, "seeds": None}
+        if then != {**self.describe(seed), "model_sha256": None, "seeds": None}:
+            return False
+        try:
+            files = [self.artifact(s) for s in stored["seeds"]]
+        except ControllerSpecError:
+            return False
+        return seed in stored["seeds"] and stored["model_sha256"] == _files_hash(files)
 
 
 @dataclass(frozen=True)

@@ -7,8 +7,9 @@ run tasks and return their records; the main process writes each record atomical
 ``OUT/<controller>/<course>/<run>.json`` (``OUT/<controller>/push/m<N>-a<k>.json``,
 ``OUT/<controller>/friction/<course>-mu<μ>-start<k>.json``) as it arrives. A record stores what made it
 (controller, course or sweep fingerprint, seed, friction), so a re-run skips finished runs and refuses to
-mix results of a different course file or kernel into the same directory. Every run is seeded by its own
-key, so results do not depend on the number of workers or on the order in which runs finish.
+mix results of a different course file or kernel into the same directory. A seed group's run records its
+own seed's policy file, so adding a seed to a group keeps the other seeds' records. Every run is seeded by
+its own key, so results do not depend on the number of workers or on the order in which runs finish.
 """
 
 from __future__ import annotations
@@ -62,7 +63,8 @@ class Task:
 
     def identity(self) -> dict[str, Any]:
         """What the run's result depends on; stored with it and compared on resumption."""
-        identity: dict[str, Any] = {"format": RESULT_FORMAT, "controller": self.controller.describe()}
+        controller = self.controller.describe(self.seed)
+        identity: dict[str, Any] = {"format": RESULT_FORMAT, "controller": controller}
         if self.sweep is not None:
             identity.update(sweep=self.sweep.to_dict(), magnitude=self.magnitude, attempt=self.attempt)
             if self.seed is not None:  # records of one policy, made before seeded sweeps, have no seed
@@ -203,10 +205,13 @@ def load_record(path: Path, task: Task | None = None) -> dict[str, Any]:
     except (OSError, ValueError, KeyError, TypeError) as error:
         raise EvaluationError(f"{path}: corrupt result file ({error}); delete it to redo that run") from None
     if task is not None:
-        stored = {key: record.get(key) for key in task.identity()}
-        if stored != task.identity():
+        identity = task.identity()
+        stored = {key: record.get(key) for key in identity}
+        if task.controller.described_as(stored["controller"], task.seed):
+            stored["controller"] = identity["controller"]
+        if stored != identity:
             raise EvaluationError(
-                f"{path} was made by a different {_differences(stored, task.identity())} than this run; "
+                f"{path} was made by a different {_differences(stored, identity)} than this run; "
                 "use another --out or delete the old results"
             )
     return record
