@@ -30,7 +30,12 @@ def test_a_shipped_policy_is_named_the_same_on_every_machine(capsys):
 
 @pytest.mark.parametrize(
     "name, file",
-    [("rp", "agent-rp/seed150.npz"), ("rp@215", "agent-rp/seed215.npz"), ("base", "agent-base.npz")],
+    [
+        ("rp", "agent-rp/seed150.npz"),
+        ("rp@215", "agent-rp/seed215.npz"),
+        ("base", "agent-base/seed150.npz"),
+        ("base@215", "agent-base/seed215.npz"),
+    ],
 )
 def test_each_shipped_agent_was_trained_with_its_own_reward(name, file, capsys):
     assert main(["agent", "info", "--policy", name, "--json"]) == 0

@@ -30,8 +30,8 @@ FILE_FORMAT = "krl-policy"
 FILE_VERSION = 1
 
 SHIPPED_POLICIES: tuple[str, ...] = ("rp", "base")
-"""Agents krl ships or may ship (a seed group ``src/krl/agent/policies/agent-<name>/seed<S>.npz``, or one
-file ``agent-<name>.npz``); ``agent`` alone means ``rp``."""
+"""Agents krl ships, each a seed group ``src/krl/agent/policies/agent-<name>/seed<S>.npz``; ``agent`` alone
+means ``rp``."""
 
 
 class PolicyFileError(ValueError):
@@ -241,14 +241,9 @@ def one_policy(text: str) -> tuple[str, Path]:
 
 
 def _policy_location(text: str) -> tuple[str, Path]:
-    """``(label name, path)`` of a shipped name (its single file or its folder) or a user's path."""
+    """``(label name, path)`` of a shipped name (its folder) or a user's path."""
     if text in SHIPPED_POLICIES:
-        folder, single = shipped_policy_dir() / f"agent-{text}", shipped_policy_dir() / f"agent-{text}.npz"
-        if folder.is_dir():
-            return text, folder
-        if single.is_file():
-            return text, single
-        raise PolicyFileError(f"krl ships no agent-{text} policy yet (train one with `krl agent train`)")
+        return text, shipped_policy_dir() / f"agent-{text}"
     path = Path(text)
     if "*" in path.name:  # a pattern of run folders or files: named by what precedes its seeds
         return path.name.split("*")[0].removesuffix("-seed").removesuffix("-").removeprefix("agent-"), path
