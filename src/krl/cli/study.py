@@ -66,9 +66,9 @@ SETTINGS_OPTIONS: tuple[str, ...] = (
 """The options a study records and refuses to change. ``--report`` without any of them reports the study
 with the settings it was started with."""
 
-LEVEL_POLICIES: tuple[str, ...] = ("agent-base=base", "agent-rp=rp@150")
-"""The policies ``level-base`` compares unless ``--policy`` is given: the shipped agent-base and seed 150 of
-the shipped agent-rp."""
+LEVEL_POLICIES: tuple[str, ...] = ("agent-base=base@150", "agent-rp=rp@150")
+"""The policies ``level-base`` compares unless ``--policy`` is given: seed 150 of the shipped agent-base and of
+the shipped agent-rp (one recipe, so the pair differs in the reward alone)."""
 
 
 def run_level_base(args: argparse.Namespace) -> int:
@@ -193,7 +193,7 @@ def register(group) -> None:
     p.add_argument(
         "--policy",
         action="append",
-        help="level-base only: LABEL=POLICY to compare (default agent-base=base, agent-rp=rp@150)",
+        help="level-base only: LABEL=POLICY to compare (default agent-base=base@150, agent-rp=rp@150)",
     )
     p.add_argument("--report-out", help="where --report writes (default OUT/report)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
