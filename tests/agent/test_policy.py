@@ -170,4 +170,5 @@ def test_a_policy_file_records_its_whole_reward_and_shipped_names_still_load(tmp
     assert (
         load_policy(shipped_policy_dir() / "agent-rp" / "seed150.npz").config.env.reward == EVALUATION_REWARD
     )
-    assert load_policy(shipped_policy_dir() / "agent-base" / "seed150.npz").config.env.reward == AGENT_BASE_REWARD
+    base = load_policy(shipped_policy_dir() / "agent-base" / "seed150.npz")
+    assert base.config.env.reward == AGENT_BASE_REWARD

@@ -67,8 +67,8 @@ SETTINGS_OPTIONS: tuple[str, ...] = (
 with the settings it was started with."""
 
 LEVEL_POLICIES: tuple[str, ...] = ("agent-base=base@150", "agent-rp=rp@150")
-"""The policies ``level-base`` compares unless ``--policy`` is given: seed 150 of the shipped agent-base and of
-the shipped agent-rp (one recipe, so the pair differs in the reward alone)."""
+"""The policies ``level-base`` compares unless ``--policy`` is given: seed 150 of the shipped agent-base and
+of the shipped agent-rp (one recipe, so the pair differs in the reward alone)."""
 
 
 def run_level_base(args: argparse.Namespace) -> int:
