@@ -17,6 +17,7 @@ from krl.agent.policy import shipped_policy_dir
 from krl.cli import main
 from krl.eval.controllers import ControllerSpecError, distinct_controllers, parse_controller
 from krl.kernel.registry import shipped_model_path
+from krl.util.hashing import file_sha256
 
 TINY = """
 format = 1
@@ -175,8 +176,7 @@ def test_a_group_that_gains_a_seed_keeps_the_records_of_the_others(tmp_path, tin
     assert main(argv) == 0
     (record,) = out.glob("*/tiny/start0-seed150.json")
     first = record.read_bytes()
-    own_file = sha256((group / "policy-seed150.npz").read_bytes())
-    assert json.loads(first)["controller"]["model_sha256"] == own_file
+    assert json.loads(first)["controller"]["model_sha256"] == file_sha256(group / "policy-seed150.npz")
     make_policy(AgentConfig(), seed=215).save(group / "policy-seed215.npz")
     capsys.readouterr()
     assert main(argv) == 0
@@ -190,8 +190,8 @@ def test_records_that_named_the_whole_group_are_kept_while_its_files_are_unchang
     out = tmp_path / "out"
     argv = evaluate_argv(out, "--controller", f"agent:{group}", "--course", str(tiny))
     assert main(argv) == 0
-    files = [sha256((group / f"policy-seed{seed}.npz").read_bytes()) for seed in (150, 215)]
-    group_hash = sha256(f"150:{files[0]}\n215:{files[1]}".encode())
+    files = [file_sha256(group / f"policy-seed{seed}.npz") for seed in (150, 215)]
+    group_hash = hashlib.sha256(f"150:{files[0]}\n215:{files[1]}".encode()).hexdigest()
     for record in out.glob("*/tiny/*.json"):  # as krl wrote a group's records before they named one file
         data = json.loads(record.read_text())
         data["controller"].update(model_sha256=group_hash, seeds=[150, 215])
@@ -202,7 +202,3 @@ def test_records_that_named_the_whole_group_are_kept_while_its_files_are_unchang
     make_policy(AgentConfig(), scale=0.1, seed=215).save(group / "policy-seed215.npz")
     assert main(argv) == 2
     assert "was made by a different controller than this run" in capsys.readouterr().err
-
-
-def sha256(data: bytes) -> str:
-    return hashlib.sha256(data).hexdigest()
