@@ -403,11 +403,7 @@ def _gait_variants() -> tuple[Variant, ...]:
             name,
             description,
             {
-                "residual": {
-                    "kernel": "ext",
-                    **drives,
-                    **({"gait_alpha": GAIT_ABLATION_ALPHA} if drives else {}),
-                },
+                "residual": {"kernel": "ext", **drives, **_drive_filter(drives)},
                 "observation": {"features": [*CORE_FEATURES, *FINAL_OPTIONAL, *observed]},
             },
         )
