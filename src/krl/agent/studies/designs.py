@@ -194,10 +194,6 @@ DRIFT_STEEPNESS: float = 1e4
 feet, weight 0.01."""
 
 
-def _initial(name: str) -> RBFTerm:
-    return next(term for term in INITIAL_REWARD.terms if term.name == name)
-
-
 def _trial_rewards() -> dict[str, tuple[str, RewardConfig]]:
     """Table 4.7's rewards, by variant name: (what it changes, the reward)."""
     initial = INITIAL_REWARD
@@ -236,7 +232,7 @@ def _trial_rewards() -> dict[str, tuple[str, RewardConfig]]:
         "t7-both": ("trial 7: trial 4 + both", trial7),
         "t8-slip-reward": (
             "trial 8: trial 7 + a stance slip reward (t to t-1)",
-            RewardConfig((*shortfall, slip), -5.0, 5.0),
+            RewardConfig((*shortfall, slip), -NOMINAL_EXPERIMENT, NOMINAL_EXPERIMENT),
         ),
         "t9-slip-penalty": (
             "trial 9: trial 7 + a stance slip penalty (t to t-1)",
@@ -245,8 +241,8 @@ def _trial_rewards() -> dict[str, tuple[str, RewardConfig]]:
                     *shortfall,
                     RBFTerm("stance_slip", "stance_slip", (0.0,), SLIP_STEEPNESS, 0.01, penalty=True),
                 ),
-                -5.0,
-                5.0,
+                -NOMINAL_EXPERIMENT,
+                NOMINAL_EXPERIMENT,
             ),
         ),
         "t10-drift-penalty": (
@@ -256,8 +252,8 @@ def _trial_rewards() -> dict[str, tuple[str, RewardConfig]]:
                     *shortfall,
                     RBFTerm("stance_drift", "stance_drift", (0.0,), DRIFT_STEEPNESS, 0.01, penalty=True),
                 ),
-                -5.0,
-                5.0,
+                -NOMINAL_EXPERIMENT,
+                NOMINAL_EXPERIMENT,
             ),
         ),
     }
