@@ -68,6 +68,14 @@ def test_steps_below_one_are_refused(tmp_path, small_config, capsys, steps):
     _refused(capsys, ["--out", str(out), "--config", str(config), "--steps", steps], out, "--steps")
 
 
+def test_update_threads_below_one_are_refused(tmp_path, small_config, capsys):
+    config = _config_file(tmp_path, small_config)
+    out = tmp_path / "run"
+    _refused(
+        capsys, ["--out", str(out), "--config", str(config), "--update-threads", "0"], out, "--update-threads"
+    )
+
+
 def test_a_resume_without_config_uses_the_stored_one_and_may_change_the_workers(
     tmp_path, small_config, capsys
 ):

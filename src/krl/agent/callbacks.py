@@ -167,15 +167,15 @@ class Checkpointer(BaseCallback):
         if folder.exists():
             shutil.rmtree(folder)
         os.replace(temporary, folder)
-        metadata = self._metadata(state, model.device.type)
+        metadata = self._metadata(state, model.device.type, model.update_threads)
         export_policy(model, normaliser, self.config, metadata).save(self.out / "policy.npz")
         write_atomic(directory / "latest", (name + "\n").encode())
         remove_old_checkpoints(directory, name)
         return folder
 
-    def _metadata(self, state: dict[str, Any], device: str) -> dict[str, Any]:
+    def _metadata(self, state: dict[str, Any], device: str, update_threads: int) -> dict[str, Any]:
         """The exported policy's header: kernel, how it was trained (``state``: a checkpoint's state.json;
-        the workers and PPO's ``device`` of this sitting) and the software."""
+        the workers, PPO's ``device`` and its ``update_threads`` of this sitting) and the software."""
         training = {
             "env_steps": state["num_timesteps"],
             "wall_seconds": state["wall_seconds"],
@@ -183,6 +183,7 @@ class Checkpointer(BaseCallback):
             "workers": self.config.workers,
             "num_envs": self.config.num_envs,
             "device": device,
+            "update_threads": update_threads,
         }
         if "initialized_from" in self.run:
             training["initialized_from"] = self.run["initialized_from"]

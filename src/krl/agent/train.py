@@ -86,10 +86,11 @@ class LearningRate:
 class ThreadedPPO(PPO):
     """SB3's PPO whose update runs on ``update_threads`` PyTorch threads, and everything else on one.
 
-    The environment workers step while PyTorch computes the rollout's actions, so more threads would
-    only fight them for the cores; during the update the workers wait. Measured on the 2-core machine, a
-    minibatch of 4 000 took 28.5 ms on one thread and 16.6 ms on two, with the same loss to the last bit
-    (``benchmarks/README.md``).
+    The environment workers step while PyTorch computes the rollout's actions, so more threads would only
+    fight them for the cores. The update defaults to one thread too: on a machine with other work (a second
+    training, an evaluation) two threads made one update 9-18 x slower than one (PyTorch's OpenMP threads
+    wait for each other at every operation), and with the machine to itself they saved only ~4 % of a
+    training's wall time (``benchmarks/README.md``, "PPO's update: one thread").
     """
 
     update_threads: int = 1
@@ -142,6 +143,7 @@ def train(
     workers: int | None = None,
     num_envs: int | None = None,
     device: str = "auto",
+    update_threads: int = 1,
     callbacks: Sequence[BaseCallback] = (),
 ) -> dict[str, Any]:
     """Train (or resume) a residual agent in ``out``; returns a summary (steps, wall time, policy path).
@@ -161,17 +163,21 @@ def train(
         num_envs: environments per worker (default: the config's); must match a resumed run's.
         device: where PPO's update runs: ``cpu``, ``cuda`` or ``auto`` (CUDA when PyTorch sees a device);
             the environments always run on the CPU workers.
+        update_threads: PyTorch threads for PPO's update on the CPU, >= 1 (:class:`ThreadedPPO`); more
+            than one only pays when nothing else runs on the machine. Results differ by rounding only.
         callbacks: more SB3 callbacks, called after krl's own (so a rollout's ``episode/*`` values are in
             ``logger.name_to_value`` at ``_on_rollout_end``); one whose ``_on_step`` returns False ends the
             training early, saving its last checkpoint and policy as at the end (an agent study's pruning).
 
     Raises:
         TrainingError: (one line, before anything is written) a run folder or checkpoint that cannot be
-            used, or ``total_steps`` below 1.
+            used, ``total_steps`` or ``update_threads`` below 1.
     """
     out = Path(out)
     if total_steps is not None and total_steps < 1:
         raise TrainingError(f"total_steps must be at least 1 env step, got {total_steps}")
+    if update_threads < 1:
+        raise TrainingError(f"update_threads must be at least 1, got {update_threads}")
     device = training_device(device)
     config, run = _open_run(out, config, seed, init_from, workers, num_envs, device)
     total = config.total_steps if total_steps is None else total_steps
@@ -187,6 +193,7 @@ def train(
     venv = ProcessVecEnv(config, config.workers, config.num_envs, env_seed, _run_kernel(out, config, run))
     try:
         model = _new_model(config, venv, run["seed"], total, device)
+        model.update_threads = update_threads
         if latest is not None:
             _resume(model, start)
             log(f"resuming {out} from {latest.name} ({done} env steps)")
@@ -429,7 +436,6 @@ def _new_model(config: AgentConfig, venv, seed: int, total: int, device: str) ->
         device=device,
         verbose=0,
     )
-    model.update_threads = config.workers  # the workers wait while PPO updates
     return model
 
 

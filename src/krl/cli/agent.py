@@ -23,6 +23,8 @@ def run_train(args: argparse.Namespace) -> int:
 
     if args.steps is not None and args.steps < 1:
         raise CliError(f"--steps must be at least 1 env step, got {args.steps}")
+    if args.update_threads < 1:
+        raise CliError(f"--update-threads must be at least 1, got {args.update_threads}")
     try:
         summary = train(
             args.out,
@@ -34,6 +36,7 @@ def run_train(args: argparse.Namespace) -> int:
             workers=args.workers,
             num_envs=args.num_envs,
             device=args.device,
+            update_threads=args.update_threads,
             log=_note if args.json else print,
         )
     except TrainingError as error:
@@ -216,6 +219,12 @@ def register(subparsers) -> None:
         choices=("auto", "cpu", "cuda"),
         default="auto",
         help="where PPO's update runs (default auto: CUDA when PyTorch sees a device); recorded in run.json",
+    )
+    p.add_argument(
+        "--update-threads",
+        type=int,
+        default=1,
+        help="PyTorch threads for PPO's update on the CPU (default 1; more pay only on a machine to itself)",
     )
     p.add_argument(
         "--init-from",
