@@ -84,6 +84,10 @@ SMOKE: dict[str, tuple[str, str | None]] = {
     ),
     "krl agent rhythm --json": ("--rates 1.5 --terrain flat --seconds 2.5", None),
     "krl agent push --magnitude 600 --direction left --out figures/push": ("--controller kernel", None),
+    "krl agent heldout --policy runs/agent-rp/policy.npz --out runs/heldout": (
+        "--episodes 2 --workers 1 --quiet",
+        None,
+    ),
     "krl agent run --targets 5 --json": ("--targets 1 --target-time-limit 1", None),
     "krl agent run --policy runs/agent-rp/policy.npz --terrain heightfield --video agent.mp4": (
         "--targets 1 --target-time-limit 0.3 --video-size 160x120",
@@ -125,8 +129,10 @@ seed = 0
 
 TINY_AGENT = (
     '{"ppo": {"rollout_steps": 256, "batch_size": 128, "n_epochs": 1, "shared": [16], "actor": [16], '
-    '"critic": [8]}, "num_envs": 2, "workers": 1, "total_steps": 512, "checkpoint_every": 256}'
+    '"critic": [8]}, "num_envs": 2, "workers": 1, "total_steps": 512, "checkpoint_every": 256, '
+    '"env": {"episode_time": 0.5}}'
 )
+"""The README's agent: a tiny network, and half-second episodes (its held-out episodes end at once)."""
 
 TINY_STUDY = (
     '{"ppo": {"rollout_steps": 128, "batch_size": 64, "n_epochs": 1, "shared": [16], "actor": [16], '

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
 from krl.cli import study
 from krl.cli.common import CliError, emit, run_controller
 from krl.cli.common import add_run_arguments as add_common_run_arguments
+from krl.util.parallel import usable_cores
 
 
 def _config(args: argparse.Namespace):
@@ -194,6 +196,51 @@ def run_push(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_heldout(args: argparse.Namespace) -> int:
+    from krl.agent.policy import policy_artifacts
+    from krl.agent.process_vec_env import WorkerError
+    from krl.analysis.agent.heldout import group_rows, policy_record, write_tables
+    from krl.util.progress import progress_bar
+
+    if args.episodes < 1:
+        raise CliError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.workers < 1:
+        raise CliError(f"--workers must be at least 1, got {args.workers}")
+    groups: dict[str, list] = {}
+    for text in args.policy:
+        label, _, spec = text.rpartition("=")
+        if label and not LABEL.fullmatch(label):
+            raise CliError(f"--policy {text!r}: a label is letters, digits, '.', '_' or '-' (a folder name)")
+        name, files = policy_artifacts(spec)
+        if (label or name) in groups:
+            raise CliError(f"--policy {text!r}: the label {label or name!r} is given twice")
+        groups[label or name] = files
+    out = Path(args.out)
+    records: dict[str, list] = {}
+    total = args.episodes * sum(len(files) for files in groups.values())
+    with progress_bar(not args.quiet, unit="episodes") as bar:
+        task = bar.add_task("held-out episodes", total=total)
+        for label, files in groups.items():
+            records[label] = []
+            for seed, path in files:
+                record_path = out / label / ("policy.json" if seed is None else f"seed{seed}.json")
+                try:
+                    record = policy_record(
+                        path, record_path, args.episodes, args.workers, lambda: bar.advance(task)
+                    )
+                except WorkerError as error:
+                    raise CliError(
+                        f"{error}; the same command goes on from the policies already walked"
+                    ) from None
+                records[label].append((seed, record))
+    rows = group_rows(records)
+    emit({"rows": rows, "written": write_tables(rows, records, out)}, args.json)
+    return 0
+
+
+LABEL = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]*")
+"""A ``krl agent heldout`` label: the name of its records' folder."""
+
 PUSH_CONTROLLERS: tuple[str, ...] = ("agent", "expert", "kernel")
 """``krl agent push``'s controllers unless given: agent-rp's first seed, the MPC expert, kernel-base."""
 
@@ -304,6 +351,25 @@ def register(subparsers) -> None:
     p.add_argument("--out", required=True, help="output folder (push-trace.png, .json, .csv, .npz)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run_push)
+
+    p = group.add_parser(
+        "heldout",
+        help="policies on held-out episodes of their training distribution (choosing without the courses)",
+    )
+    p.add_argument(
+        "--policy",
+        action="append",
+        required=True,
+        help="[LABEL=]POLICY: a shipped name (rp, base), a policy file or a seed group (its seeds); repeat",
+    )
+    p.add_argument("--episodes", type=int, default=32, help="episodes per policy file (default 32)")
+    p.add_argument(
+        "--workers", type=int, default=usable_cores(), help="environment processes (default: cores)"
+    )
+    p.add_argument("--out", required=True, help="output folder: one record per policy file, heldout.md/.csv")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=run_heldout)
 
     p = group.add_parser(
         "rhythm",

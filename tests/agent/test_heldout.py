@@ -1,0 +1,93 @@
+"""krl agent heldout: policies walk the same fresh episodes of their training distribution, never a
+training seed; the records resume; the table's seed spread by hand."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+
+import pytest
+
+from krl.agent.config import EnvConfig
+from krl.agent.train import train
+from krl.analysis.agent import heldout
+from krl.analysis.agent.heldout import HELDOUT_SEED, group_rows
+from krl.cli import main
+
+
+@pytest.fixture
+def tiny_group(tmp_path, small_config):
+    """Two tiny policies of one recipe (seeds 1 and 2) whose episodes last 0.5 s."""
+    config = replace(small_config, env=EnvConfig(episode_time=0.5))
+    for seed in (1, 2):
+        train(
+            tmp_path / f"tiny-seed{seed}",
+            config,
+            seed=seed,
+            total_steps=256,
+            progress=False,
+            log=lambda _: None,
+        )
+    return str(tmp_path / "tiny-seed*")
+
+
+def heldout_json(capsys, *args: str) -> dict:
+    assert main(["agent", "heldout", *args, "--episodes", "3", "--workers", "1", "--quiet", "--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_every_seed_walks_the_same_heldout_episodes_and_a_rerun_reads_them(
+    tmp_path, tiny_group, capsys, monkeypatch
+):
+    out = tmp_path / "heldout"
+    first = heldout_json(capsys, "--policy", f"tiny={tiny_group}", "--out", str(out))
+    (row,) = first["rows"]
+    assert (row["label"], row["seeds"], row["episodes"]) == ("tiny", "1 2", 3)
+    records = [json.loads((out / "tiny" / f"seed{seed}.json").read_text()) for seed in (1, 2)]
+    terrains = [[episode["terrain"] for episode in record["episodes_walked"]] for record in records]
+    assert terrains[0] == terrains[1] and len(set(terrains[0])) == 3  # the same three fresh terrains
+    for record in records:
+        assert record["heldout_seed"] == HELDOUT_SEED and len(record["episodes_walked"]) == 3
+        assert all(0 < episode["length_s"] <= 0.5 + 1e-9 for episode in record["episodes_walked"])
+    assert "| tiny | 1 2 |" in (out / "heldout.md").read_text()
+
+    monkeypatch.setattr(heldout, "heldout_episodes", lambda *args: pytest.fail("walked again"))
+    assert heldout_json(capsys, "--policy", f"tiny={tiny_group}", "--out", str(out)) == first
+
+
+def test_the_heldout_environments_are_no_training_environments():
+    # training seeds its environments seed + i (+ 7919 per resumed sitting): far below HELDOUT_SEED here
+    assert HELDOUT_SEED > 10**6
+
+
+def test_the_group_row_is_the_mean_and_sample_std_over_seeds():
+    def record(targets, success, falls, reward):
+        summary = dict(zip(heldout.METRICS, (targets, success, falls, reward), strict=True))
+        return {"episodes": 4, "summary": summary}
+
+    rows = group_rows(
+        {
+            "a": [(150, record(3.0, 0.5, 0.25, 0.1)), (215, record(5.0, 1.0, 0.0, 0.2))],
+            "b": [(None, record(1, 0, 1, 0))],
+        }
+    )
+    assert rows[0]["seeds"] == "150 215" and rows[0]["targets_reached_mean"] == 4.0
+    assert rows[0]["targets_reached_std"] == pytest.approx(math.sqrt(2.0))
+    assert rows[0]["fall_rate_std"] == pytest.approx(0.25 / math.sqrt(2.0))
+    assert rows[1]["seeds"] == "-" and math.isnan(rows[1]["success_rate_std"])
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--policy", "rp", "--episodes", "0"], "--episodes must be at least 1, got 0"),
+        (["--policy", "a=rp", "--policy", "a=base"], "the label 'a' is given twice"),
+        (["--policy", "../x=rp"], "--policy '../x=rp': a label is letters, digits, '.', '_' or '-'"),
+    ],
+)
+def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, args, message):
+    assert main(["agent", "heldout", *args, "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "out").exists()
