@@ -134,7 +134,8 @@ def write_tables(
         "",
         f"Each policy walks the same {rows[0]['episodes']} episodes of its own training environment, seeded "
         f"from {HELDOUT_SEED} on (never a training seed), with its deterministic action; mean ± sample std "
-        f"over seeds. Success: at least {SUCCESS_TARGETS} waypoints without a fall.",
+        f"over seeds. Success: at least {SUCCESS_TARGETS} waypoints without a fall. Reward/step is each "
+        "policy's own training reward: not comparable between policies trained on different rewards.",
         "",
         "| policy | seeds | targets reached | success rate | fall rate | reward/step |",
         "| --- | --- | --- | --- | --- | --- |",
