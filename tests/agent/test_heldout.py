@@ -9,8 +9,8 @@ from dataclasses import replace
 
 import pytest
 
-from krl.agent.config import EnvConfig
-from krl.agent.train import train
+from krl.agent.config import AgentConfig, EnvConfig
+from krl.agent.train import _env_seed, train
 from krl.analysis.agent import heldout
 from krl.analysis.agent.heldout import HELDOUT_SEED, group_rows
 from krl.cli import main
@@ -57,8 +57,10 @@ def test_every_seed_walks_the_same_heldout_episodes_and_a_rerun_reads_them(
 
 
 def test_the_heldout_environments_are_no_training_environments():
-    # training seeds its environments seed + i (+ 7919 per resumed sitting): far below HELDOUT_SEED here
-    assert HELDOUT_SEED > 10**6
+    # the largest environment seed of the recipe's runs: seed 556 resumed at its last checkpoint, last env
+    recipe = replace(AgentConfig(), workers=2, num_envs=16, checkpoint_every=500_000)
+    last_sitting = _env_seed(556, recipe, resumed_at=20_000_000)
+    assert last_sitting + recipe.workers * recipe.num_envs < HELDOUT_SEED
 
 
 def test_the_group_row_is_the_mean_and_sample_std_over_seeds():

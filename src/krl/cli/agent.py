@@ -10,7 +10,6 @@ from pathlib import Path
 from krl.cli import study
 from krl.cli.common import CliError, emit, run_controller
 from krl.cli.common import add_run_arguments as add_common_run_arguments
-from krl.util.parallel import usable_cores
 
 
 def _config(args: argparse.Namespace):
@@ -200,12 +199,14 @@ def run_heldout(args: argparse.Namespace) -> int:
     from krl.agent.policy import policy_artifacts
     from krl.agent.process_vec_env import WorkerError
     from krl.analysis.agent.heldout import group_rows, policy_record, write_tables
+    from krl.util.parallel import usable_cores
     from krl.util.progress import progress_bar
 
     if args.episodes < 1:
         raise CliError(f"--episodes must be at least 1, got {args.episodes}")
-    if args.workers < 1:
-        raise CliError(f"--workers must be at least 1, got {args.workers}")
+    workers = usable_cores() if args.workers is None else args.workers
+    if workers < 1:
+        raise CliError(f"--workers must be at least 1, got {workers}")
     groups: dict[str, list] = {}
     for text in args.policy:
         label, _, spec = text.rpartition("=")
@@ -226,7 +227,7 @@ def run_heldout(args: argparse.Namespace) -> int:
                 record_path = out / label / ("policy.json" if seed is None else f"seed{seed}.json")
                 try:
                     record = policy_record(
-                        path, record_path, args.episodes, args.workers, lambda: bar.advance(task)
+                        path, record_path, args.episodes, workers, lambda: bar.advance(task)
                     )
                 except WorkerError as error:
                     raise CliError(
@@ -363,9 +364,7 @@ def register(subparsers) -> None:
         help="[LABEL=]POLICY: a shipped name (rp, base), a policy file or a seed group (its seeds); repeat",
     )
     p.add_argument("--episodes", type=int, default=32, help="episodes per policy file (default 32)")
-    p.add_argument(
-        "--workers", type=int, default=usable_cores(), help="environment processes (default: cores)"
-    )
+    p.add_argument("--workers", type=int, help="environment processes (default: one per usable core)")
     p.add_argument("--out", required=True, help="output folder: one record per policy file, heldout.md/.csv")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print JSON")
