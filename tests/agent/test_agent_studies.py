@@ -211,7 +211,9 @@ def test_a_search_draws_its_trials_then_confirms_the_best_from_every_seed(tmp_pa
     assert {name.split("-")[0] for name, _ in confirm} == {f"trial{t.number}" for t in best}
     written = write_study_report(SEARCH_DESIGN, settings, sqlite(tmp_path), tmp_path / "report")
     assert written["status"][CONFIRM]["missing"] == 0
-    assert "Pruning replayed on these unpruned trials" in (tmp_path / "report" / "tiny-search.md").read_text()
+    report = (tmp_path / "report" / "tiny-search.md").read_text()
+    assert "Pruning replayed on these unpruned trials" in report
+    assert "| median (" in report and "| halving (" in report
 
 
 def test_the_pruning_replay_counts_the_steps_a_pruner_saves():

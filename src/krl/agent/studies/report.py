@@ -26,6 +26,7 @@ from krl.agent.studies.runner import (
     open_stage,
     plan_entries,
     pruner,
+    pruner_rule,
 )
 from krl.util.output import csv_bytes, figure_bytes, write_atomic
 
@@ -344,14 +345,20 @@ def _search_lines(design: StudyDesign, settings: StudySettings, searched, status
         )
         lines.append(f"| {best['trial']} | {best['targets_reached']:.2f} | {params} |")
     if settings.pruner == "none" and searched:
-        replay = replay_pruning(searched, pruner("median", settings.budget))
         top = [b["trial"] for b in status["best"]]
-        saved = replay["env_steps_unpruned"] / max(1, replay["env_steps_pruned"])
         lines += [
             "",
-            f"Pruning replayed on these unpruned trials (Optuna's median pruner, 5 startup trials, warm-up "
-            f"{settings.budget // 5:.3g} steps): {replay['env_steps_pruned']:.3g} env steps instead of "
-            f"{replay['env_steps_unpruned']:.3g} ({saved:.2f}x cheaper); it keeps "
-            f"{sum(t in replay['kept'] for t in top)} of the best {len(top)}.",
+            "Pruning replayed on these unpruned trials, in trial order, for each `--pruner`:",
+            "",
+            "| pruner | env steps | unpruned | cheaper | best kept |",
+            "| --- | --- | --- | --- | --- |",
         ]
+        for name in ("median", "halving"):
+            replay = replay_pruning(searched, pruner(name, settings.budget))
+            saved = replay["env_steps_unpruned"] / max(1, replay["env_steps_pruned"])
+            lines.append(
+                f"| {name} ({pruner_rule(name, settings.budget)}) | {replay['env_steps_pruned']:.3g} | "
+                f"{replay['env_steps_unpruned']:.3g} | {saved:.2f}x | "
+                f"{sum(t in replay['kept'] for t in top)} of {len(top)} |"
+            )
     return [*lines, ""]

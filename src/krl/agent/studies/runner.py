@@ -142,6 +142,15 @@ def pruner(name: str, budget: int):
     return optuna.pruners.NopPruner()
 
 
+def pruner_rule(name: str, budget: int) -> str:
+    """:func:`pruner`'s rule in words, for reports."""
+    if name == "median":
+        return f"below the earlier trials' median, after 5 trials and {budget // 5:.3g} env steps"
+    if name == "halving":
+        return f"successive halving, rungs from {budget // 8:.3g} env steps, reduction factor 4"
+    return "none"
+
+
 def open_stage(design: StudyDesign, settings: StudySettings, stage: str, url: str, heartbeat: float = 60.0):
     """The Optuna study of one stage (``NAME`` or ``NAME:confirm``), created or loaded; refuses one
     created with other settings."""
