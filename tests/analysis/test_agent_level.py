@@ -55,3 +55,21 @@ def test_level_base_refuses_a_missing_policy_in_one_line(tmp_path, capsys):
     assert main(argv) == 2
     error = capsys.readouterr().err
     assert "none.npz" in error and error.count("\n") == 1
+
+
+@pytest.mark.parametrize(
+    ("command", "output"),
+    [(["agent", "study", "level-base"], "--report-out"), (["agent", "stairs"], "--out")],
+)
+def test_policy_labels_are_checked_alike_by_every_command(tmp_path, capsys, command, output):
+    """level-base and stairs read ``--policy [LABEL=]POLICY`` as heldout does: a label given twice, or not
+    a folder name, is refused in one line before anything is walked or written."""
+    for policies, message in [
+        (["a=rp", "a=base"], "the label 'a' is given twice"),
+        (["../x=rp"], "a label is letters, digits"),
+    ]:
+        argv = [*command, *(f"--policy={p}" for p in policies), output, str(tmp_path / "out")]
+        assert main(argv) == 2
+        error = capsys.readouterr().err
+        assert message in error and error.count("\n") == 1
+        assert not (tmp_path / "out").exists()

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 from pathlib import Path
 
 from krl.cli import study
-from krl.cli.common import CliError, emit, run_controller
+from krl.cli.common import CliError, emit, labelled_policies, run_controller
 from krl.cli.common import add_run_arguments as add_common_run_arguments
 
 
@@ -145,11 +144,7 @@ def run_stairs(args: argparse.Namespace) -> int:
     from krl.analysis.agent.stairs import stairs_diagnosis, stairs_figure
     from krl.eval.courses import load_course
 
-    policies: dict[str, Path] = {}
-    for text in args.policy:
-        label, _, spec = text.rpartition("=")
-        name, path = one_policy(spec)
-        policies[label or name] = path
+    policies = labelled_policies(args.policy, one_policy)
     course = load_course(args.course)
     if course.terrain != "stairs":
         raise CliError(f"--course {args.course} is on {course.terrain!r}, not on stairs")
@@ -207,15 +202,7 @@ def run_heldout(args: argparse.Namespace) -> int:
     workers = usable_cores() if args.workers is None else args.workers
     if workers < 1:
         raise CliError(f"--workers must be at least 1, got {workers}")
-    groups: dict[str, list] = {}
-    for text in args.policy:
-        label, _, spec = text.rpartition("=")
-        if label and not LABEL.fullmatch(label):
-            raise CliError(f"--policy {text!r}: a label is letters, digits, '.', '_' or '-' (a folder name)")
-        name, files = policy_artifacts(spec)
-        if (label or name) in groups:
-            raise CliError(f"--policy {text!r}: the label {label or name!r} is given twice")
-        groups[label or name] = files
+    groups = labelled_policies(args.policy, policy_artifacts)
     out = Path(args.out)
     records: dict[str, list] = {}
     total = args.episodes * sum(len(files) for files in groups.values())
@@ -238,9 +225,6 @@ def run_heldout(args: argparse.Namespace) -> int:
     emit({"rows": rows, "written": write_tables(rows, records, out)}, args.json)
     return 0
 
-
-LABEL = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]*")
-"""A ``krl agent heldout`` label: the name of its records' folder."""
 
 PUSH_CONTROLLERS: tuple[str, ...] = ("agent", "expert", "kernel")
 """``krl agent push``'s controllers unless given: agent-rp's first seed, the MPC expert, kernel-base."""

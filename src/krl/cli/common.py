@@ -16,7 +16,7 @@ import math
 import re
 import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 
@@ -190,6 +190,26 @@ def parse_ints(text: str, option: str) -> list[int]:
     if not numbers:
         raise ValueError(f"{option} expects comma-separated integers, got {text!r}")
     return numbers
+
+
+LABEL = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]*")
+"""A label given as ``LABEL=…``: letters, digits, '.', '_' or '-', usable as a folder name."""
+
+
+def labelled_policies(texts: Sequence[str], resolve: Callable[[str], tuple[str, Any]]) -> dict[str, Any]:
+    """``--policy [LABEL=]POLICY`` options -> ``{label: resolve(POLICY)[1]}``; the label defaults to the name
+    ``resolve`` gives (``krl.agent.policy.one_policy`` or ``policy_artifacts``). A CliError (one line) for a
+    label that is not a folder name or is given twice; ``resolve``'s own errors pass through."""
+    policies: dict[str, Any] = {}
+    for text in texts:
+        label, _, spec = text.rpartition("=")
+        if label and not LABEL.fullmatch(label):
+            raise CliError(f"--policy {text!r}: a label is letters, digits, '.', '_' or '-' (a folder name)")
+        name, value = resolve(spec)
+        if (label or name) in policies:
+            raise CliError(f"--policy {text!r}: the label {label or name!r} is given twice")
+        policies[label or name] = value
+    return policies
 
 
 # --- option groups -----------------------------------------------------------------------------------

@@ -7,7 +7,7 @@ import multiprocessing
 import shlex
 from pathlib import Path
 
-from krl.cli.common import CliError, emit, parse_ints
+from krl.cli.common import CliError, emit, labelled_policies, parse_ints
 
 
 def _settings(args: argparse.Namespace, design):
@@ -77,11 +77,7 @@ def run_level_base(args: argparse.Namespace) -> int:
     from krl.analysis.agent.level import LEVEL_COURSES, level_runs, write_level_report
     from krl.eval.courses import load_course
 
-    policies = {}
-    for text in args.policy or LEVEL_POLICIES:
-        label, _, spec = text.rpartition("=")
-        name, path = one_policy(spec)
-        policies[label or name] = path
+    policies = labelled_policies(args.policy or LEVEL_POLICIES, one_policy)
     runs = level_runs(policies, [load_course(name) for name in LEVEL_COURSES])
     out = Path(args.report_out or args.out or "runs/agent-studies/level-base")
     command = "krl " + shlex.join(args.argv)
