@@ -311,6 +311,7 @@ def test_the_gait_ablation_adds_one_drive_at_a_time_to_the_final_agent():
     assert configs["steer-both"].residual.drive_steer and configs["both"].residual.gait_alpha == 0.5
     assert configs["residual-ext"].residual.gait_alpha == ResidualConfig().gait_alpha  # nothing to filter
     assert all(c.residual.kernel == "ext" and c.env.pushes for c in configs.values())
+    assert all(c.env.friction == (0.4, 1.0) for c in configs.values())
     assert reward_name(configs["both"].env.reward) == "rp" and configs["both"].num_envs == 16
     assert configs["both"].observation.features[-2:] == ("heights", "clock_rate")
     assert configs["residual-ext"].observation.features == (
