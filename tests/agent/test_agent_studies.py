@@ -16,7 +16,7 @@ from agent_fakes import LOG_COLUMNS, TINY_STUDY
 from krl.agent.config import ResidualConfig
 from krl.agent.studies import designs, runner
 from krl.agent.studies.designs import STUDIES, StudyDesign, Variant
-from krl.agent.studies.report import replay_pruning, write_study_report
+from krl.agent.studies.report import replay_pruning, replay_resampled, write_study_report
 from krl.agent.studies.runner import CONFIRM, LIST, SEARCH, StudySettings, open_stage, work
 from krl.cli import main
 from krl.task.reward import reward_name
@@ -216,18 +216,38 @@ def test_a_search_draws_its_trials_then_confirms_the_best_from_every_seed(tmp_pa
     assert "| median (" in report and "| halving (" in report
 
 
-def test_the_pruning_replay_counts_the_steps_a_pruner_saves():
-    def trial(number, final):
+def curve_trials(finals):
+    """Finished trials numbered 0, 1, ... whose targets grow linearly to ``finals`` over 400 env steps."""
+    trials = []
+    for number, final in enumerate(finals):
         curve = [[step, final * step / 400, 0.0] for step in (100, 200, 300, 400)]
-        return optuna.trial.create_trial(value=final, user_attrs={"curve": curve, "env_steps": 400,
-                                         "targets_reached": final}, params={}, distributions={})  # fmt: skip
+        trials.append(optuna.trial.create_trial(value=final, user_attrs={"curve": curve, "env_steps": 400,
+                      "targets_reached": final}, params={}, distributions={}))  # fmt: skip
+        trials[-1].number = number
+    return trials
 
-    trials = [trial(n, final) for n, final in enumerate([3.0, 3.0, 3.0, 1.0, 2.9])]
-    for n, t in enumerate(trials):
-        t.number = n
+
+def test_the_pruning_replay_counts_the_steps_a_pruner_saves():
+    trials = curve_trials([3.0, 3.0, 3.0, 1.0, 2.9])
     replay = replay_pruning(trials, optuna.pruners.MedianPruner(n_startup_trials=3, n_warmup_steps=150))
     assert replay["env_steps_unpruned"] == 2000
     assert replay["env_steps_pruned"] == 1200 + 200 + 200 and replay["kept"] == [0, 1, 2]
+
+
+def test_a_resampled_replay_draws_a_larger_search_from_the_curves():
+    def median():
+        return optuna.pruners.MedianPruner(n_startup_trials=3, n_warmup_steps=150)
+
+    good_and_bad = curve_trials([3.0, 1.0])
+    drawn = replay_resampled(good_and_bad, median, size=50, top=[0], repeats=5)
+    assert drawn == replay_resampled(good_and_bad, median, size=50, top=[0], repeats=5)  # seeded draws
+    assert drawn["best_kept"] == 1.0  # the good curve is never below a median
+    # a bad copy stops at 200 of 400 steps when most earlier trials were good (else the median is its own
+    # curve), the good ones run out: between 1x and 2x
+    assert len(drawn["savings"]) == 5 and all(1 <= saving < 2 for saving in drawn["savings"])
+    assert max(drawn["savings"]) > 1
+    same = replay_resampled(curve_trials([2.0, 2.0]), median, size=20, top=[0], repeats=3)
+    assert same["savings"] == [1.0, 1.0, 1.0]  # equal curves: nothing is below the median
 
 
 def test_krl_agent_study_refuses_bad_input_in_one_line(tmp_path, capsys):

@@ -10,7 +10,7 @@ ran unpruned, what the pruner would have saved on exactly those trials (:func:`r
 from __future__ import annotations
 
 import statistics
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -127,8 +127,8 @@ CURVE_SERIES: tuple[str, ...] = ("targets", "success", "reward")
 def replay_pruning(trials: Sequence[Any], pruner) -> dict[str, Any]:
     """What ``pruner`` (an Optuna pruner) would have done to a search run unpruned: the recorded learning
     curves replayed in trial order through a fresh in-memory study. Returns the env steps it would have
-    trained (a pruned trial stops at the rollout it was pruned after), against those trained, and whether
-    the best :data:`top` by final targets would have been kept (the ones it prunes cannot be chosen)."""
+    trained (a pruned trial stops at the rollout it was pruned after), against those trained, and the
+    numbers of the trials it would have kept (the ones it prunes cannot be chosen)."""
     import optuna
 
     study = optuna.create_study(direction="maximize", pruner=pruner)
@@ -150,6 +150,31 @@ def replay_pruning(trials: Sequence[Any], pruner) -> dict[str, Any]:
             kept.append(trial.number)
         used, full = used + stopped, full + steps
     return {"env_steps_unpruned": full, "env_steps_pruned": used, "kept": kept}
+
+
+def replay_resampled(
+    trials: Sequence[Any], make_pruner: Callable[[], Any], size: int, top: Sequence[int], repeats: int = 20
+) -> dict[str, Any]:
+    """:func:`replay_pruning` on searches of ``size`` trials drawn from these trials' curves with
+    replacement, in random order (draw ``k`` seeded ``k``, ``repeats`` draws): an estimate of what pruning
+    saves in a search with more trials than were run. Returns the saving (unpruned / pruned env steps)
+    per draw, and ``best_kept``: the share of the drawn copies of the ``top`` trials (numbers) that the
+    pruner let finish."""
+    import random
+    from types import SimpleNamespace
+
+    ordered = sorted(trials, key=lambda t: t.number)
+    savings, best, kept = [], 0, 0
+    for draw in range(repeats):
+        rng = random.Random(draw)
+        picked = [rng.choice(ordered) for _ in range(size)]
+        replay = replay_pruning(
+            [SimpleNamespace(number=i, user_attrs=t.user_attrs) for i, t in enumerate(picked)], make_pruner()
+        )
+        savings.append(replay["env_steps_unpruned"] / max(1, replay["env_steps_pruned"]))
+        copies = [i for i, t in enumerate(picked) if t.number in top]
+        best, kept = best + len(copies), kept + sum(i in replay["kept"] for i in copies)
+    return {"savings": savings, "best_kept": kept / best if best else None}
 
 
 def open_stages(design: StudyDesign, settings: StudySettings, url: str) -> dict[str, Any]:
@@ -345,20 +370,42 @@ def _search_lines(design: StudyDesign, settings: StudySettings, searched, status
         )
         lines.append(f"| {best['trial']} | {best['targets_reached']:.2f} | {params} |")
     if settings.pruner == "none" and searched:
-        top = [b["trial"] for b in status["best"]]
+        lines += ["", "Pruning replayed on these unpruned trials, in trial order, for each `--pruner`:", ""]
+        lines += _pruning_table(design, settings, searched, [b["trial"] for b in status["best"]])
+    return [*lines, ""]
+
+
+def _pruning_table(design: StudyDesign, settings: StudySettings, searched, top: list[int]) -> list[str]:
+    """Each pruner replayed on the unpruned search; when the design's search is larger than the one run,
+    also on searches of the design's size drawn from these trials (:func:`replay_resampled`)."""
+    resampled = design.trials > len(searched)
+    extra = f" {design.trials} trials drawn from these: cheaper, best kept |" if resampled else ""
+    lines = [
+        "| pruner | env steps | unpruned | cheaper | best kept |" + extra,
+        "| --- | --- | --- | --- | --- |" + (" --- |" if resampled else ""),
+    ]
+    for name in ("median", "halving"):
+        replay = replay_pruning(searched, pruner(name, settings.budget))
+        saved = replay["env_steps_unpruned"] / max(1, replay["env_steps_pruned"])
+        row = (
+            f"| {name} ({pruner_rule(name, settings.budget)}) | {replay['env_steps_pruned']:.3g} | "
+            f"{replay['env_steps_unpruned']:.3g} | {saved:.2f}x | "
+            f"{sum(t in replay['kept'] for t in top)} of {len(top)} |"
+        )
+        if resampled:
+            drawn = replay_resampled(searched, lambda n=name: pruner(n, settings.budget), design.trials, top)
+            savings = drawn["savings"]
+            row += (
+                f" {statistics.mean(savings):.2f}x ({min(savings):.2f}-{max(savings):.2f}), "
+                f"{drawn['best_kept']:.2f} |"
+            )
+        lines.append(row)
+    if resampled:
         lines += [
             "",
-            "Pruning replayed on these unpruned trials, in trial order, for each `--pruner`:",
-            "",
-            "| pruner | env steps | unpruned | cheaper | best kept |",
-            "| --- | --- | --- | --- | --- |",
+            f"The last column replays searches of the thesis's {design.trials} trials made of these trials' "
+            "curves, drawn with replacement in 20 random orders (mean, range over the draws; best kept: the "
+            "share of the drawn copies of the best trials left to finish): an estimate, since a larger "
+            "search draws new settings, not copies.",
         ]
-        for name in ("median", "halving"):
-            replay = replay_pruning(searched, pruner(name, settings.budget))
-            saved = replay["env_steps_unpruned"] / max(1, replay["env_steps_pruned"])
-            lines.append(
-                f"| {name} ({pruner_rule(name, settings.budget)}) | {replay['env_steps_pruned']:.3g} | "
-                f"{replay['env_steps_unpruned']:.3g} | {saved:.2f}x | "
-                f"{sum(t in replay['kept'] for t in top)} of {len(top)} |"
-            )
-    return [*lines, ""]
+    return lines
