@@ -20,6 +20,10 @@ study() {
 # the search without pruning, so its report can replay the median pruner on whole curves
 study ppo-search --trials 16 --budget 500000 --top 3 --seeds "$SEEDS" --confirm-budget 1000000 --pruner none "${@}"
 study reward-features --seeds "$SEEDS" --budget 500000 "${@}"
+# the same on the final agent's ground (rough height field, hills, pushes), where training falls: on our
+# reading of the optimisation terrain nothing falls, so the fall penalty of trials 5 and 7 cannot act
+krl agent study reward-features --out "$OUT/reward-features-rough" --config examples/studies/cut-down-rough.json \
+  --quiet --seeds "$SEEDS" --budget 500000 "${@}"
 study reward-rbf --trials 10 --budget 500000 --top 2 --seeds "$SEEDS" --confirm-budget 500000 "${@}"
 study reward-weights --trials 10 --budget 500000 --top 2 --seeds "$SEEDS" --confirm-budget 500000 "${@}"
 study state-space --seeds "$SEEDS" --budget 500000 "${@}"
@@ -28,4 +32,5 @@ study alternative --seeds "$SEEDS" --budget 1000000 "${@}"
 for name in ppo-search reward-features reward-rbf reward-weights state-space alternative; do
   krl agent study "$name" --out "$OUT/$name" --report --report-out "$REPORT" "${@}"
 done
+krl agent study reward-features --out "$OUT/reward-features-rough" --report --report-out "$REPORT/rough" "${@}"
 krl agent study level-base --report-out "$REPORT"
