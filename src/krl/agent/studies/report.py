@@ -239,18 +239,19 @@ def _figure(path: Path, curves: dict[str, dict[str, np.ndarray]], title: str) ->
     import matplotlib.pyplot as plt
 
     panels = [label for label in CURVE_SERIES if any(label in curve for curve in curves.values())]
+    # one colour per group: the default cycle repeats after 10, tab20 after 20
+    palette = plt.get_cmap("tab10" if len(curves) <= 10 else "tab20").colors
     fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 3.6), squeeze=False)
     for ax, label in zip(axes[0], panels, strict=True):
-        for name, curve in curves.items():
+        for index, (name, curve) in enumerate(curves.items()):
             if label in curve:
-                values = curve[label]
-                x = curve["steps"] / 1e6
-                (line,) = ax.plot(x, values.mean(axis=0), label=f"{name} ({len(values)})", linewidth=1.2)
+                values, x, colour = curve[label], curve["steps"] / 1e6, palette[index % len(palette)]
+                ax.plot(x, values.mean(axis=0), label=f"{name} ({len(values)})", linewidth=1.2, color=colour)
                 ax.fill_between(
                     x,
                     values.mean(0) - values.std(0),
                     values.mean(0) + values.std(0),
-                    color=line.get_color(),
+                    color=colour,
                     alpha=0.15,
                 )
         ax.set_title(CURVE_TITLES[label], fontsize=10)
