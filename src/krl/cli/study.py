@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import multiprocessing
+import os
 import shlex
 from pathlib import Path
 
@@ -44,10 +45,23 @@ def _settings(args: argparse.Namespace, design):
     return settings
 
 
-def _work(name: str, settings, out: str, url: str, heartbeat: float, quiet: bool) -> None:
-    """One study process (the parent's, or a spawned job's)."""
+JOB_STOP_GRACE: float = 120.0
+"""How long a stopped study's jobs get to checkpoint their trials and queue them again [s] (a SQLite
+writer may wait up to 120 s for the lock) before they are killed."""
+
+
+def _work(
+    name: str, settings, out: str, url: str, heartbeat: float, quiet: bool, parent: int | None = None
+) -> None:
+    """One study process: the parent's, or a job the parent (pid ``parent``) spawned, which leaves Ctrl-C
+    to the parent and dies with it."""
     from krl.agent.studies.designs import STUDIES
     from krl.agent.studies.runner import work
+
+    if parent is not None:
+        from krl.util.parallel import die_with_parent
+
+        die_with_parent(parent)
 
     log = (lambda _: None) if quiet else print
     work(STUDIES[name], settings, Path(out), url, heartbeat, log=log, progress=not quiet)
@@ -128,22 +142,33 @@ def run_study(args: argparse.Namespace) -> int:
             emit(written, args.json)
             return 0
         out.mkdir(parents=True, exist_ok=True)
-        spawn = multiprocessing.get_context("spawn")
-        others = [
-            spawn.Process(target=_work, args=(design.name, settings, str(out), url, args.heartbeat, True))
-            for _ in range(jobs - 1)
-        ]
-        for process in others:
-            process.start()
-        try:
-            _work(design.name, settings, str(out), url, args.heartbeat, args.quiet)
-        finally:
-            for process in others:
-                process.join()
+        _run_jobs(design.name, settings, out, url, args.heartbeat, args.quiet, jobs)
     except StudyError as error:
         raise CliError(str(error)) from None
     emit(study_status(design, settings, url), args.json)
     return 0
+
+
+def _run_jobs(name: str, settings, out: Path, url: str, heartbeat: float, quiet: bool, jobs: int) -> None:
+    """``jobs`` study processes: this one and ``jobs - 1`` spawned. Ctrl-C or SIGTERM of this one, while
+    it trains or waits for the others, stops every job: each checkpoints its trial and queues it again."""
+    from krl.util.parallel import signals_raise, stop_processes
+
+    spawn = multiprocessing.get_context("spawn")
+    others = [
+        spawn.Process(target=_work, args=(name, settings, str(out), url, heartbeat, True, os.getpid()))
+        for _ in range(jobs - 1)
+    ]
+    with signals_raise():
+        for process in others:
+            process.start()
+        try:
+            _work(name, settings, str(out), url, heartbeat, quiet)
+            for process in others:
+                process.join()
+        except KeyboardInterrupt:
+            stop_processes(others, JOB_STOP_GRACE)
+            raise
 
 
 def register(group) -> None:

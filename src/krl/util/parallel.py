@@ -107,7 +107,7 @@ def run_jobs(
         results[index] = result
         bar.advance(task)
 
-    with _signals_raise(), progress_bar(progress is not None, transient=True) as bar:
+    with signals_raise(), progress_bar(progress is not None, transient=True) as bar:
         task = bar.add_task(progress or "", total=len(jobs))
         try:
             if workers == 1 or len(jobs) <= 1:
@@ -142,16 +142,16 @@ def _run_pool(
     except BaseException:
         with _signals_ignored():
             pool.shutdown(wait=False, cancel_futures=True)
-            _stop([child for child in multiprocessing.active_children() if child not in before])
+            stop_processes([child for child in multiprocessing.active_children() if child not in before])
         raise
     pool.shutdown()
 
 
-def _stop(processes: Sequence[Any]) -> None:
-    """SIGTERM each ``multiprocessing`` process, SIGKILL what is left after :data:`STOP_GRACE`; reap all."""
+def stop_processes(processes: Sequence[Any], grace: float = STOP_GRACE) -> None:
+    """SIGTERM each ``multiprocessing`` process, SIGKILL what is left after ``grace`` seconds; reap all."""
     for process in processes:
         process.terminate()
-    deadline = time.monotonic() + STOP_GRACE
+    deadline = time.monotonic() + grace
     for process in processes:
         process.join(max(0.0, deadline - time.monotonic()))
     for process in processes:
@@ -171,7 +171,7 @@ def _raise_interrupted(signum: int, frame: object) -> None:
 
 
 @contextmanager
-def _signals_raise() -> Iterator[None]:
+def signals_raise() -> Iterator[None]:
     """Inside: SIGINT and SIGTERM raise :class:`Interrupted` (main thread only; an ignored signal stays
     ignored). The previous handlers come back on exit."""
     with _handlers(_raise_interrupted):
