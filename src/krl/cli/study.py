@@ -45,11 +45,6 @@ def _settings(args: argparse.Namespace, design):
     return settings
 
 
-JOB_STOP_GRACE: float = 120.0
-"""How long a stopped study's jobs get to checkpoint their trials and queue them again [s] (a SQLite
-writer may wait up to 120 s for the lock) before they are killed."""
-
-
 def _work(
     name: str, settings, out: str, url: str, heartbeat: float, quiet: bool, parent: int | None = None
 ) -> None:
@@ -152,6 +147,7 @@ def run_study(args: argparse.Namespace) -> int:
 def _run_jobs(name: str, settings, out: Path, url: str, heartbeat: float, quiet: bool, jobs: int) -> None:
     """``jobs`` study processes: this one and ``jobs - 1`` spawned. Ctrl-C or SIGTERM of this one, while
     it trains or waits for the others, stops every job: each checkpoints its trial and queues it again."""
+    from krl.util.optuna_storage import SQLITE_LOCK_TIMEOUT
     from krl.util.parallel import signals_raise, stop_processes
 
     spawn = multiprocessing.get_context("spawn")
@@ -167,7 +163,8 @@ def _run_jobs(name: str, settings, out: Path, url: str, heartbeat: float, quiet:
             for process in others:
                 process.join()
         except KeyboardInterrupt:
-            stop_processes(others, JOB_STOP_GRACE)
+            # each job checkpoints its trial and queues it again: as long as a SQLite write may wait
+            stop_processes(others, SQLITE_LOCK_TIMEOUT)
             raise
 
 

@@ -152,8 +152,16 @@ def replay_pruning(trials: Sequence[Any], pruner) -> dict[str, Any]:
     return {"env_steps_unpruned": full, "env_steps_pruned": used, "kept": kept}
 
 
+RESAMPLED_REPEATS: int = 20
+"""How many resampled searches the report replays per pruner (:func:`replay_resampled`)."""
+
+
 def replay_resampled(
-    trials: Sequence[Any], make_pruner: Callable[[], Any], size: int, top: Sequence[int], repeats: int = 20
+    trials: Sequence[Any],
+    make_pruner: Callable[[], Any],
+    size: int,
+    top: Sequence[int],
+    repeats: int = RESAMPLED_REPEATS,
 ) -> dict[str, Any]:
     """:func:`replay_pruning` on searches of ``size`` trials drawn from these trials' curves with
     replacement, in random order (draw ``k`` seeded ``k``, ``repeats`` draws): an estimate of what pruning
@@ -405,8 +413,8 @@ def _pruning_table(design: StudyDesign, settings: StudySettings, searched, top: 
         lines += [
             "",
             f"The last column replays searches of the thesis's {design.trials} trials made of these trials' "
-            "curves, drawn with replacement in 20 random orders (mean, range over the draws; best kept: the "
-            "share of the drawn copies of the best trials left to finish): an estimate, since a larger "
-            "search draws new settings, not copies.",
+            f"curves, drawn with replacement in {RESAMPLED_REPEATS} random orders (mean, range over the "
+            "draws; best kept: the share of the drawn copies of the best trials left to finish): an "
+            "estimate, since a larger search draws new settings, not copies.",
         ]
     return lines

@@ -130,24 +130,41 @@ def stored_settings(design: StudyDesign, url: str) -> StudySettings | None:
     return StudySettings(**{**stored, "seeds": tuple(stored["seeds"]), "shared": stored["shared"] or None})
 
 
+def _pruner_settings(name: str, budget: int) -> dict[str, int]:
+    """The keyword arguments of :func:`pruner`'s Optuna pruner, for trials of ``budget`` env steps."""
+    if name == "median":
+        return {"n_startup_trials": 5, "n_warmup_steps": budget // 5}
+    if name == "halving":
+        return {"min_resource": budget // 8, "reduction_factor": 4}
+    return {}
+
+
 def pruner(name: str, budget: int):
     """The Optuna pruner ``--pruner name`` stands for, for trials of ``budget`` env steps: the median rule
     after 5 trials and 20 % of the budget, successive halving from an eighth of it, or none."""
     import optuna
 
+    settings = _pruner_settings(name, budget)
     if name == "median":
-        return optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=budget // 5)
+        return optuna.pruners.MedianPruner(**settings)
     if name == "halving":
-        return optuna.pruners.SuccessiveHalvingPruner(min_resource=budget // 8)
+        return optuna.pruners.SuccessiveHalvingPruner(**settings)
     return optuna.pruners.NopPruner()
 
 
 def pruner_rule(name: str, budget: int) -> str:
     """:func:`pruner`'s rule in words, for reports."""
+    settings = _pruner_settings(name, budget)
     if name == "median":
-        return f"below the earlier trials' median, after 5 trials and {budget // 5:.3g} env steps"
+        return (
+            f"below the earlier trials' median, after {settings['n_startup_trials']} trials and "
+            f"{settings['n_warmup_steps']:.3g} env steps"
+        )
     if name == "halving":
-        return f"successive halving, rungs from {budget // 8:.3g} env steps, reduction factor 4"
+        return (
+            f"successive halving, rungs from {settings['min_resource']:.3g} env steps, reduction factor "
+            f"{settings['reduction_factor']}"
+        )
     return "none"
 
 
