@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Chapter 4's agent studies at the cut-down budget of docs/studies.md ("What this 2-core machine runs"):
-# 6e7 env steps in all, 5.2 h on 2 cores with --jobs 2 (measured). Every study resumes where it stopped, and a finished trial
-# is never re-run, so after an interruption run this again. Then the reports go to docs/results/agent.
+# 6e7 env steps in all, 5.2 h on 2 cores with --jobs 2 (measured). Every study resumes where it stopped,
+# and a finished trial is never re-run, so after an interruption run this again. Then the reports go to
+# docs/results/agent.
 #
-#   nohup examples/studies/cut-down.sh > runs/cut-down.log 2>&1 &
+#   nohup examples/studies/cut-down.sh --jobs 2 > runs/cut-down.log 2>&1 &
 #
 # OUT and REPORT may be set in the environment; any other `krl agent study` option (--storage for many
 # machines, --jobs) is passed on: examples/studies/cut-down.sh --storage postgresql://...
