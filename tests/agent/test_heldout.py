@@ -7,13 +7,17 @@ import json
 import math
 from dataclasses import replace
 
+import numpy as np
 import pytest
+from agent_fakes import make_policy
 
-from krl.agent.config import AgentConfig, EnvConfig
+from krl.agent.action import action_parts
+from krl.agent.config import AgentConfig, EnvConfig, ResidualConfig
 from krl.agent.train import _env_seed, train
 from krl.analysis.agent import heldout
-from krl.analysis.agent.heldout import HELDOUT_SEED, group_rows
+from krl.analysis.agent.heldout import HELDOUT_SEED, drive_usage, group_rows
 from krl.cli import main
+from krl.kernel.registry import load_model
 
 
 @pytest.fixture
@@ -93,3 +97,37 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, args, messag
     err = capsys.readouterr().err.strip()
     assert message in err and len(err.splitlines()) == 1
     assert not (tmp_path / "out").exists()
+
+
+def test_drive_usage_is_what_the_policy_asked_for_in_each_drives_unit():
+    parts = action_parts(
+        ResidualConfig(kernel="ext", drive_heights=True, drive_rhythm=True), load_model("ext")
+    )
+    actions = np.zeros((4, 15))
+    actions[:, 14] = [1.0, 1.5, 0.0, -0.995]  # clock rate: 2, 2 (clipped), 1, ~0.5 (at the low bound)
+    actions[:, 13] = -1.0  # ride height: its low end, 0.18 m, every step
+    usage = drive_usage(parts, actions)
+    assert list(usage) == ["heights.step_height", "heights.ride_height", "clock_rate.rate"]
+    rate = usage["clock_rate.rate"]
+    assert rate["mean"] == pytest.approx((2 + 2 + 1 + 1 - 0.995 * 0.5) / 4)
+    assert (rate["at_high"], rate["at_low"]) == (0.5, 0.25)
+    assert usage["heights.ride_height"]["mean"] == pytest.approx(0.18)
+    assert usage["heights.ride_height"]["at_low"] == 1.0 and usage["heights.step_height"]["at_low"] == 0.0
+    assert drive_usage(action_parts(ResidualConfig(), load_model("base")), np.ones((3, 12))) == {}
+
+
+def test_a_gait_driving_policy_gets_its_drive_usage_table(tmp_path, capsys, small_config):
+    config = replace(
+        small_config,
+        env=EnvConfig(episode_time=0.5),
+        residual=ResidualConfig(kernel="ext", drive_heights=True, drive_rhythm=True),
+    )
+    path = make_policy(config, scale=0.5, seed=3).save(tmp_path / "gait.npz")
+    out = tmp_path / "heldout"
+    heldout_json(capsys, "--policy", f"gait={path}", "--out", str(out))
+    record = json.loads((out / "gait" / "policy.json").read_text())
+    assert set(record["drive_usage"]) == {"heights.step_height", "heights.ride_height", "clock_rate.rate"}
+    rate = record["drive_usage"]["clock_rate.rate"]
+    assert 0.5 <= rate["p5"] <= rate["mean"] <= rate["p95"] <= 2.0
+    assert "| gait | clock_rate.rate |" in (out / "heldout.md").read_text()
+    assert (out / "heldout-drives.csv").read_text().startswith("label,drive,mean,p5,p95,at_low,at_high")

@@ -28,8 +28,12 @@ from krl.agent.config import AgentConfigError, ResidualConfig
 from krl.control.expert import RIDE_HEIGHT_RANGE, STEP_HEIGHT_RANGE
 from krl.kernel.model import Kernel
 from krl.kernel.settings import training_settings
+from krl.robots.a1.constants import LEG_NAMES
 
 __all__ = ["DRIVE_PARTS", "ActionPart", "action_parts"]
+
+COMMAND_LABELS: tuple[str, ...] = ("v_x", "v_y", "yaw_rate")
+"""The names of a velocity command's numbers (m/s, m/s, rad/s)."""
 
 DRIVE_PARTS: tuple[str, ...] = ("command", "steer", "heights", "clock_rate")
 """The parts that drive the kernel's inputs or the clock, in action order."""
@@ -48,6 +52,8 @@ class ActionPart:
     """Value at action 0 (the faithful agent's value), per number."""
     high: tuple[float, ...]
     """Value at action +1, per number."""
+    labels: tuple[str, ...]
+    """Each number's name (``FR.x``, ``v_x``, ``step_height``, ``rate``)."""
 
     @property
     def size(self) -> int:
@@ -85,6 +91,7 @@ def action_parts(config: ResidualConfig, kernel: Kernel) -> tuple[ActionPart, ..
                 tuple(-b for b in bound),
                 (0.0,) * len(bound),
                 bound,
+                tuple(f"{leg}.{axis}" for leg in LEG_NAMES for axis in "xyz"),
             )
         )
     settings = training_settings(kernel)
@@ -98,6 +105,7 @@ def action_parts(config: ResidualConfig, kernel: Kernel) -> tuple[ActionPart, ..
                 tuple(r[0] for r in ranges),
                 (0.0, 0.0, 0.0),
                 tuple(r[1] for r in ranges),
+                COMMAND_LABELS,
             )
         )
     if config.drive_steer:
@@ -109,6 +117,7 @@ def action_parts(config: ResidualConfig, kernel: Kernel) -> tuple[ActionPart, ..
                 tuple(-r[1] for r in ranges),
                 (0.0, 0.0, 0.0),
                 tuple(r[1] for r in ranges),
+                COMMAND_LABELS,
             )
         )
     if config.drive_heights:
@@ -126,6 +135,7 @@ def action_parts(config: ResidualConfig, kernel: Kernel) -> tuple[ActionPart, ..
                 (STEP_HEIGHT_RANGE[0], RIDE_HEIGHT_RANGE[0]),
                 (expert.step_height, expert.ride_height),
                 (STEP_HEIGHT_RANGE[1], RIDE_HEIGHT_RANGE[1]),
+                ("step_height", "ride_height"),
             )
         )
     if config.drive_rhythm:
@@ -138,6 +148,7 @@ def action_parts(config: ResidualConfig, kernel: Kernel) -> tuple[ActionPart, ..
                 (low,),
                 (1.0,),
                 (high,),
+                ("rate",),
             )
         )
     return tuple(parts)

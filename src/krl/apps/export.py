@@ -8,9 +8,9 @@ The graphs are built from the same NumPy arrays krl's own inference uses (``Kern
 * ``policy.onnx``: ``observation`` (N, D) float32 -> ``action`` (N, A) in [-1, 1] (the deterministic
   action: the Gaussian's mean, clipped); A = 12 for the thesis's residual agent.
 * ``contract.json``: the observation's terms in order with slices and units, the kernel's input names, the
-  action's parts in order (:mod:`krl.agent.action`: slice, unit, the values -1, 0 and +1 map to, the
-  filter each passes through), the residual bound [m] and the filter's α, the control and physics steps,
-  the foot and joint order, and the SHA-256 of the kernel and policy files.
+  action's parts in order (:mod:`krl.agent.action`: slice, unit, each number's name, the values -1, 0
+  and +1 map to, the filter each passes through), the residual bound [m] and the filter's α, the control
+  and physics steps, the foot and joint order, and the SHA-256 of the kernel and policy files.
 
 An export leaves its folder consistent: every graph is built before the first file is written, the contract
 is written last, and a kernel-only export refuses a folder that holds a ``policy.onnx`` (of an earlier
@@ -194,6 +194,7 @@ def _action_contract(residual, kernel) -> dict[str, Any]:
             "at_minus_1": list(part.low),
             "at_0": list(part.nominal),
             "at_plus_1": list(part.high),
+            "labels": list(part.labels),
             "filter_alpha": residual.alpha if part.name == "residual" else residual.gait_alpha,
         }
         parts.append(entry)

@@ -10,6 +10,9 @@ k``, so every policy meets the same terrains, starts, waypoints and push draws.
 Per episode: waypoints reached, whether it fell, its length [s] and reward per step; per policy the
 training's own metrics over them (targets reached, success rate as :data:`krl.agent.callbacks.SUCCESS_TARGETS`
 defines it, fall rate, reward per step); per seed group the mean and sample std of those over its seeds.
+A policy that drives the gait (:mod:`krl.agent.action`) also gets how it used each driven number over
+every step of its episodes (:func:`drive_usage`): where its values lay and how often the policy asked for
+a bound, the sign that the bound, not the policy, limits what the drive can do.
 """
 
 from __future__ import annotations
@@ -22,9 +25,11 @@ from typing import Any
 
 import numpy as np
 
+from krl.agent.action import DRIVE_PARTS, ActionPart, action_parts
 from krl.agent.callbacks import SUCCESS_TARGETS
 from krl.agent.policy import check_kernel_file, load_policy
 from krl.agent.process_vec_env import ProcessVecEnv
+from krl.kernel.model import load_kernel
 from krl.util.hashing import file_sha256
 from krl.util.output import csv_bytes, json_value, write_atomic
 from krl.util.timing import CONTROL_DT
@@ -39,27 +44,70 @@ METRICS: tuple[str, ...] = ("targets_reached", "success_rate", "fall_rate", "rew
 
 def heldout_episodes(
     path: Path, episodes: int, workers: int, on_episode: Callable[[], None] = lambda: None
-) -> list[dict[str, Any]]:
+) -> tuple[list[dict[str, Any]], dict[str, dict[str, float]]]:
     """Walk ``episodes`` held-out episodes with the policy file at ``path`` (``workers`` processes), one
-    episode per environment; returns one dict per episode, in environment order: ``targets_reached``,
-    ``fell``, ``length_s`` [s], ``reward_per_step``, ``terrain``. ``on_episode`` is called as each ends."""
+    episode per environment. Returns one dict per episode, in environment order (``targets_reached``,
+    ``fell``, ``length_s`` [s], ``reward_per_step``, ``terrain``), and the policy's :func:`drive_usage`
+    over every step of them (empty for a policy that drives nothing). ``on_episode`` is called as each
+    episode ends."""
     policy = load_policy(path)
     kernel = check_kernel_file(policy, None, path)
+    parts = action_parts(policy.config.residual, load_kernel(kernel))
+    drives = any(part.name in DRIVE_PARTS for part in parts)
     workers = max(1, min(workers, episodes))
     per_worker = math.ceil(episodes / workers)
     venv = ProcessVecEnv(policy.config, workers, per_worker, HELDOUT_SEED, str(kernel))
     ended: list[dict[str, Any] | None] = [None] * episodes
+    asked: list[np.ndarray] = []
     try:
         observations = venv.reset()
         while any(episode is None for episode in ended):
-            observations, _, dones, infos = venv.step(policy.act(observations))
+            actions = policy.act(observations)
+            if drives:
+                asked.append(actions[[index for index in range(episodes) if ended[index] is None]])
+            observations, _, dones, infos = venv.step(actions)
             for index in np.flatnonzero(dones[:episodes]):
                 if ended[index] is None:
                     ended[index] = _episode(infos[index]["episode"])
                     on_episode()
     finally:
         venv.close()
-    return [episode for episode in ended if episode is not None]
+    usage = drive_usage(parts, np.concatenate(asked)) if drives else {}
+    return [episode for episode in ended if episode is not None], usage
+
+
+SATURATED: float = 0.99
+"""An action number at or beyond ±this asks for its bound (actions are clipped to ±1)."""
+
+
+def drive_usage(parts: tuple[ActionPart, ...], actions: np.ndarray) -> dict[str, dict[str, float]]:
+    """How a policy used each driven number, from its actions over every step walked (before the drive
+    filter: what the policy asked for). Per number of each drive part (``heights.step_height``,
+    ``clock_rate.rate``, …: the part's name and :attr:`krl.agent.action.ActionPart.labels`): the mean and
+    the 5th and 95th percentiles of its value in the part's unit, and the fractions of steps at its low and
+    its high bound (:data:`SATURATED`).
+
+    Args:
+        parts: the action's parts, in order (:func:`krl.agent.action.action_parts`).
+        actions: the policy's actions. Shape: (steps, action size).
+    """
+    usage: dict[str, dict[str, float]] = {}
+    start = 0
+    for part in parts:
+        numbers = np.clip(actions[:, start : start + part.size], -1.0, 1.0)
+        start += part.size
+        if part.name not in DRIVE_PARTS:
+            continue
+        values = part.value(numbers)
+        for column, label in enumerate(part.labels):
+            usage[f"{part.name}.{label}"] = {
+                "mean": float(np.mean(values[:, column])),
+                "p5": float(np.percentile(values[:, column], 5)),
+                "p95": float(np.percentile(values[:, column], 95)),
+                "at_low": float(np.mean(numbers[:, column] <= -SATURATED)),
+                "at_high": float(np.mean(numbers[:, column] >= SATURATED)),
+            }
+    return usage
 
 
 def _episode(info: dict[str, Any]) -> dict[str, Any]:
@@ -97,9 +145,15 @@ def policy_record(
             for _ in range(episodes):
                 on_episode()
             return stored
-    walked = heldout_episodes(path, episodes, workers, on_episode)
+    walked, usage = heldout_episodes(path, episodes, workers, on_episode)
     record = json_value(
-        {"policy": str(path), **identity, "summary": summarise(walked), "episodes_walked": walked}
+        {
+            "policy": str(path),
+            **identity,
+            "summary": summarise(walked),
+            "drive_usage": usage,
+            "episodes_walked": walked,
+        }
     )
     write_atomic(record_path, json.dumps(record, indent=1) + "\n")
     return record  # as stored (rounded), so that a rerun reading it reports the same
@@ -153,8 +207,43 @@ def write_tables(
             summary = record["summary"]
             cells = " | ".join(f"{summary[m]:.3g}" for m in METRICS)
             lines.append(f"| {label} | {'-' if seed is None else seed} | {cells} |")
+    written = {"csv": str(out / "heldout.csv"), "md": str(out / "heldout.md")}
+    drives = drive_rows(records)
+    if drives:
+        write_atomic(out / "heldout-drives.csv", csv_bytes(list(drives[0]), drives))
+        written["drives_csv"] = str(out / "heldout-drives.csv")
+        lines += ["", *_drive_lines(drives)]
     write_atomic(out / "heldout.md", "\n".join(lines) + "\n")
-    return {"csv": str(out / "heldout.csv"), "md": str(out / "heldout.md")}
+    return written
+
+
+def drive_rows(records: dict[str, list[tuple[int | None, dict[str, Any]]]]) -> list[dict[str, Any]]:
+    """One row per label and driven number (:func:`drive_usage`), each statistic the mean over the
+    label's seeds; none for labels that drive nothing (or records written before drives were counted)."""
+    rows = []
+    for label, members in records.items():
+        usages = [record.get("drive_usage") or {} for _, record in members]
+        for drive in usages[0]:
+            row: dict[str, Any] = {"label": label, "drive": drive}
+            for statistic in ("mean", "p5", "p95", "at_low", "at_high"):
+                row[statistic] = float(np.mean([usage[drive][statistic] for usage in usages]))
+            rows.append(row)
+    return rows
+
+
+def _drive_lines(rows: list[dict[str, Any]]) -> list[str]:
+    lines = [
+        "How the gait-driving policies used their drives: what each asked for (before the drive filter) "
+        f"over every step of the held-out episodes, mean over seeds; at a bound: the share of steps whose "
+        f"action was at ±{SATURATED} or beyond.",
+        "",
+        "| policy | drive | mean | 5 % | 95 % | at low bound | at high bound |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for row in rows:
+        cells = " | ".join(f"{row[s]:.3g}" for s in ("mean", "p5", "p95", "at_low", "at_high"))
+        lines.append(f"| {row['label']} | {row['drive']} | {cells} |")
+    return lines
 
 
 def _cells(row: dict[str, Any]) -> str:
