@@ -1,5 +1,5 @@
 """SIGTERM of a ``krl agent study`` running two jobs (tiny real trainings, SQLite): both jobs stop, and
-their trials are checkpointed and queued again, none left running."""
+their trials are checkpointed and queued again, none left running, and no job prints a traceback."""
 
 from __future__ import annotations
 
@@ -37,6 +37,7 @@ def test_sigterm_stops_every_job_and_queues_their_trials_again(tmp_path):
     time.sleep(3)  # both inside their trainings
     study.send_signal(signal.SIGTERM)
     assert study.wait(timeout=180) != 0
+    assert "Traceback" not in study.stderr.read()  # the spawned job stops as quietly as the parent
     for worker in workers:  # the spawned job is gone too
         pid = int(worker.rsplit(":", 1)[1])
         try:

@@ -49,7 +49,7 @@ def _work(
     name: str, settings, out: str, url: str, heartbeat: float, quiet: bool, parent: int | None = None
 ) -> None:
     """One study process: the parent's, or a job the parent (pid ``parent``) spawned, which leaves Ctrl-C
-    to the parent and dies with it."""
+    to the parent and dies with it; stopped, such a job leaves the report to the parent (no traceback)."""
     from krl.agent.studies.designs import STUDIES
     from krl.agent.studies.runner import work
 
@@ -59,7 +59,12 @@ def _work(
         die_with_parent(parent)
 
     log = (lambda _: None) if quiet else print
-    work(STUDIES[name], settings, Path(out), url, heartbeat, log=log, progress=not quiet)
+    try:
+        work(STUDIES[name], settings, Path(out), url, heartbeat, log=log, progress=not quiet)
+    except KeyboardInterrupt:
+        if parent is None:
+            raise
+        raise SystemExit(130) from None  # its trial is checkpointed and queued again
 
 
 SETTINGS_OPTIONS: tuple[str, ...] = (
