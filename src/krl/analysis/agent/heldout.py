@@ -79,6 +79,9 @@ def heldout_episodes(
 SATURATED: float = 0.99
 """An action number at or beyond ±this asks for its bound (actions are clipped to ±1)."""
 
+DRIVE_STATISTICS: tuple[str, ...] = ("mean", "p5", "p95", "at_low", "at_high")
+"""What :func:`drive_usage` measures of each driven number, in table order."""
+
 
 def drive_usage(parts: tuple[ActionPart, ...], actions: np.ndarray) -> dict[str, dict[str, float]]:
     """How a policy used each driven number, from its actions over every step walked (before the drive
@@ -225,7 +228,7 @@ def drive_rows(records: dict[str, list[tuple[int | None, dict[str, Any]]]]) -> l
         usages = [record.get("drive_usage") or {} for _, record in members]
         for drive in usages[0]:
             row: dict[str, Any] = {"label": label, "drive": drive}
-            for statistic in ("mean", "p5", "p95", "at_low", "at_high"):
+            for statistic in DRIVE_STATISTICS:
                 row[statistic] = float(np.mean([usage[drive][statistic] for usage in usages]))
             rows.append(row)
     return rows
@@ -241,7 +244,7 @@ def _drive_lines(rows: list[dict[str, Any]]) -> list[str]:
         "| --- | --- | --- | --- | --- | --- | --- |",
     ]
     for row in rows:
-        cells = " | ".join(f"{row[s]:.3g}" for s in ("mean", "p5", "p95", "at_low", "at_high"))
+        cells = " | ".join(f"{row[s]:.3g}" for s in DRIVE_STATISTICS)
         lines.append(f"| {row['label']} | {row['drive']} | {cells} |")
     return lines
 
