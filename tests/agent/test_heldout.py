@@ -131,3 +131,57 @@ def test_a_gait_driving_policy_gets_its_drive_usage_table(tmp_path, capsys, smal
     assert 0.5 <= rate["p5"] <= rate["mean"] <= rate["p95"] <= 2.0
     assert "| gait | clock_rate.rate |" in (out / "heldout.md").read_text()
     assert (out / "heldout-drives.csv").read_text().startswith("label,drive,mean,p5,p95,at_low,at_high")
+
+
+def group_row(label, success, targets, episodes=32):
+    return {
+        "label": label,
+        "episodes": episodes,
+        "success_rate_mean": success,
+        "targets_reached_mean": targets,
+    }
+
+
+def test_the_rule_chooses_the_highest_success_and_breaks_ties_within_one_episode_by_targets():
+    rows = [
+        group_row("control", 1.0, 9.0),  # not a candidate: never chosen however good
+        group_row("a", 25 / 32, 4.0),
+        group_row("b", 26 / 32, 4.5),
+        group_row("c", 27 / 32, 4.2),
+        group_row("d", 24 / 32, 6.0),  # two episodes below the best: not tied
+    ]
+    choice = heldout.choose(rows, ["a", "b", "c", "d"])
+    assert choice["chosen"] == "b" and choice["tied"] == ["b", "c"]
+    assert (choice["best_success_rate"], choice["tolerance"]) == (27 / 32, 1 / 32)
+    assert heldout.choose(rows, ["a", "c"])["chosen"] == "c"  # a is one below, has fewer targets
+    even = [group_row("x", 0.5, 4.0), group_row("y", 0.5, 4.0)]
+    assert heldout.choose(even, ["y", "x"])["chosen"] == "y"  # a full tie: the first given
+    with pytest.raises(ValueError, match="--choose 'z' is no --policy label"):
+        heldout.choose(rows, ["a", "z"])
+    with pytest.raises(ValueError, match="names a label twice"):
+        heldout.choose(rows, ["a", "a"])
+
+
+def test_choose_names_the_chosen_policy_in_json_and_table(tmp_path, tiny_group, capsys):
+    out = tmp_path / "heldout"
+    result = heldout_json(
+        capsys,
+        "--policy",
+        f"p={tiny_group}",
+        "--policy",
+        f"q={tiny_group}",
+        "--choose",
+        "q,p",
+        "--out",
+        str(out),
+    )
+    assert result["choice"]["chosen"] == "q" and result["choice"]["tied"] == ["q", "p"]
+    assert "Chosen: **q**" in (out / "heldout.md").read_text()
+
+
+def test_a_bad_choice_fails_before_walking(tmp_path, capsys):
+    args = ["agent", "heldout", "--policy", "a=rp", "--choose", "a,b", "--out", str(tmp_path / "out")]
+    assert main([*args, "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--choose 'b' is no --policy label (labels: a)" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "out").exists()

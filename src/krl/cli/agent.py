@@ -193,7 +193,13 @@ def run_push(args: argparse.Namespace) -> int:
 def run_heldout(args: argparse.Namespace) -> int:
     from krl.agent.policy import policy_artifacts
     from krl.agent.process_vec_env import WorkerError
-    from krl.analysis.agent.heldout import group_rows, policy_record, write_tables
+    from krl.analysis.agent.heldout import (
+        check_candidates,
+        choose,
+        group_rows,
+        policy_record,
+        write_tables,
+    )
     from krl.util.parallel import usable_cores
     from krl.util.progress import progress_bar
 
@@ -203,6 +209,11 @@ def run_heldout(args: argparse.Namespace) -> int:
     if workers < 1:
         raise CliError(f"--workers must be at least 1, got {workers}")
     groups = labelled_policies(args.policy, policy_artifacts)
+    candidates = [label.strip() for label in args.choose.split(",")] if args.choose else []
+    try:  # a bad --choose fails before any episode is walked
+        check_candidates(list(groups), candidates)
+    except ValueError as error:
+        raise CliError(str(error)) from None
     out = Path(args.out)
     records: dict[str, list] = {}
     total = args.episodes * sum(len(files) for files in groups.values())
@@ -222,7 +233,9 @@ def run_heldout(args: argparse.Namespace) -> int:
                     ) from None
                 records[label].append((seed, record))
     rows = group_rows(records)
-    emit({"rows": rows, "written": write_tables(rows, records, out)}, args.json)
+    choice = choose(rows, candidates) if candidates else None
+    result = {"rows": rows, "written": write_tables(rows, records, out, choice)}
+    emit(result | ({"choice": choice} if choice else {}), args.json)
     return 0
 
 
@@ -348,6 +361,10 @@ def register(subparsers) -> None:
         help="[LABEL=]POLICY: a shipped name (rp, base), a policy file or a seed group (its seeds); repeat",
     )
     p.add_argument("--episodes", type=int, default=32, help="episodes per policy file (default 32)")
+    p.add_argument(
+        "--choose",
+        help="LABEL,LABEL,...: choose one of these by held-out success, ties within one episode by targets",
+    )
     p.add_argument("--workers", type=int, help="environment processes (default: one per usable core)")
     p.add_argument("--out", required=True, help="output folder: one record per policy file, heldout.md/.csv")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -180,10 +180,46 @@ def group_rows(records: dict[str, list[tuple[int | None, dict[str, Any]]]]) -> l
     return rows
 
 
+def check_candidates(labels: list[str], candidates: list[str]) -> None:
+    """Raise ``ValueError`` unless ``candidates`` are distinct labels among ``labels``."""
+    for label in candidates:
+        if label not in labels:
+            raise ValueError(f"--choose {label!r} is no --policy label (labels: {', '.join(labels)})")
+    if len(set(candidates)) != len(candidates):
+        raise ValueError(f"--choose names a label twice: {','.join(candidates)}")
+
+
+def choose(rows: list[dict[str, Any]], candidates: list[str]) -> dict[str, Any]:
+    """Choose one of ``candidates`` (labels of ``rows``, :func:`group_rows`) by their held-out episodes:
+    the highest mean success rate wins; candidates within one episode of it (``1 / episodes``, a
+    seed's rate moved by one episode) count as tied, and of those the most targets reached wins (then
+    the first given). Returns ``chosen``, ``tied`` (in the order given), ``best_success_rate`` and
+    ``tolerance``.
+
+    Raises:
+        ValueError: from :func:`check_candidates`.
+    """
+    by_label = {row["label"]: row for row in rows}
+    check_candidates(list(by_label), candidates)
+    tolerance = 1.0 / max(by_label[label]["episodes"] for label in candidates)
+    best = max(by_label[label]["success_rate_mean"] for label in candidates)
+    tied = [
+        label
+        for label in candidates
+        if by_label[label]["success_rate_mean"] >= best - tolerance - 1e-12  # rates are k / episodes
+    ]
+    chosen = max(tied, key=lambda label: (by_label[label]["targets_reached_mean"], -tied.index(label)))
+    return {"chosen": chosen, "tied": tied, "best_success_rate": best, "tolerance": tolerance}
+
+
 def write_tables(
-    rows: list[dict[str, Any]], records: dict[str, list[tuple[int | None, dict[str, Any]]]], out: Path
+    rows: list[dict[str, Any]],
+    records: dict[str, list[tuple[int | None, dict[str, Any]]]],
+    out: Path,
+    choice: dict[str, Any] | None = None,
 ) -> dict[str, str]:
-    """``heldout.csv`` (the group rows) and ``heldout.md`` (them, and every seed's summary) in ``out``."""
+    """``heldout.csv`` (the group rows) and ``heldout.md`` (them, every seed's summary and ``choice``,
+    :func:`choose`'s answer, when given) in ``out``."""
     columns = ["label", "seeds", "episodes", *(f"{m}_{s}" for m in METRICS for s in ("mean", "std"))]
     write_atomic(out / "heldout.csv", csv_bytes(columns, rows))
     lines = [
@@ -216,6 +252,8 @@ def write_tables(
         write_atomic(out / "heldout-drives.csv", csv_bytes(list(drives[0]), drives))
         written["drives_csv"] = str(out / "heldout-drives.csv")
         lines += ["", *_drive_lines(drives)]
+    if choice is not None:
+        lines += ["", *_choice_lines(choice)]
     write_atomic(out / "heldout.md", "\n".join(lines) + "\n")
     return written
 
@@ -247,6 +285,20 @@ def _drive_lines(rows: list[dict[str, Any]]) -> list[str]:
         cells = " | ".join(f"{row[s]:.3g}" for s in DRIVE_STATISTICS)
         lines.append(f"| {row['label']} | {row['drive']} | {cells} |")
     return lines
+
+
+def _choice_lines(choice: dict[str, Any]) -> list[str]:
+    others = [label for label in choice["tied"] if label != choice["chosen"]]
+    tie = (
+        f"tied within {choice['tolerance']:.3g} with {', '.join(others)}; the most targets reached wins"
+        if others
+        else "no other candidate within one episode of it"
+    )
+    return [
+        f"Chosen: **{choice['chosen']}**, the highest held-out success rate "
+        f"({choice['best_success_rate']:.3g}) of the candidates, {tie} "
+        "(`krl.analysis.agent.heldout.choose`).",
+    ]
 
 
 def _cells(row: dict[str, Any]) -> str:
