@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from krl.analysis.agent.stairs import command_following, run_summary, stairs_geometry
+from krl.analysis.agent.stairs import command_following, gait_on_stairs, run_summary, stairs_geometry
 from krl.eval.courses import load_course
 from krl.util.timing import CONTROL_DT
 
@@ -53,6 +53,24 @@ def test_a_run_that_leaves_the_landing_by_its_side():
     assert row["landing_max_abs_y_feet"] == pytest.approx(1.93)
 
 
+def test_the_gait_inputs_are_averaged_over_the_stairs_only():
+    trace = straight_trace(speed=0.5, yaw_rate=0.0, seconds=12.0, command=(0.5, 0.0, 0.0))
+    steps = len(trace["base_pos"])  # x runs 0 -> 6 m: over the stairs (1 < x < 4.9) from 2 s to 9.8 s
+    trace["time"] = np.arange(steps) * CONTROL_DT
+    trace["ground"] = np.zeros((steps, 4))
+    trace["gait_inputs"] = np.tile([0.0, 0.0, 0.0, 0.08, 0.25, 1.0], (steps, 1))
+    over = (trace["base_pos"][:, 0] > 1.0) & (trace["base_pos"][:, 0] < 4.9)
+    trace["gait_inputs"][over, 3] = 0.12  # a higher step over the stairs only
+    trace["gait_inputs"][: steps // 2, 5] = 2.0  # the clock fast for the first 6 s
+    gait = gait_on_stairs(trace, GEOMETRY)
+    assert gait["step_height_on_stairs"] == pytest.approx(0.12)
+    assert gait["ride_height_on_stairs"] == pytest.approx(0.25)
+    assert gait["clock_rate_on_stairs"] == pytest.approx((4.0 * 2 + 3.8 * 1) / 7.8, abs=2e-3)
+    assert gait["step_height"].shape == gait["ground"].shape == (steps,)
+    trace["base_pos"][:, 0] = 0.0  # never over the stairs
+    assert np.isnan(gait_on_stairs(trace, GEOMETRY)["clock_rate_on_stairs"])
+
+
 def test_the_geometry_is_read_from_the_course():
     geometry = stairs_geometry(load_course("stairs"))
     assert geometry == {**GEOMETRY, "half_width": 3.2, "landing_height": pytest.approx(0.2)}
@@ -97,7 +115,7 @@ def test_krl_agent_stairs_writes_the_figure_and_its_table(tmp_path, capsys):
     course_file = tmp_path / "short-stairs.toml"
     course_file.write_text(
         'format = 1\nname = "short-stairs"\ntime_limit = 1.0\nd_min = 0.5\nwaypoints = [[2.0, 0.0]]\n'
-        'starts = [[0.0, 0.0, 0.0], [0.0, 0.3, 0.0]]\n\n[terrain]\nname = "stairs"\n'
+        'starts = [[0.0, 0.0, 0.0], [1.05, 0.3, 0.0]]\n\n[terrain]\nname = "stairs"\n'
     )
     argv = ["agent", "stairs", "--policy", "shipped=rp", "--course", str(course_file), "--out", str(tmp_path)]
     assert main([*argv, "--json"]) == 0
@@ -105,5 +123,13 @@ def test_krl_agent_stairs_writes_the_figure_and_its_table(tmp_path, capsys):
     assert [run["policy"] for run in printed["runs"]] == ["shipped", "shipped"]
     for kind in ("png", "json", "csv"):
         assert (tmp_path / f"stairs-diagnosis.{kind}").is_file()
+    assert (
+        printed["gait_png"] == str(tmp_path / "stairs-gait.png") and (tmp_path / "stairs-gait.png").is_file()
+    )
+    # agent-rp drives nothing: kernel-base's nominal step and ride heights, rate 1 on the stairs (the second
+    # start's trunk is past the first riser), none from the first start, 1 m before the riser
+    first, second = printed["runs"]
+    assert first["step_height_on_stairs"] is None
+    assert (second["ride_height_on_stairs"], second["clock_rate_on_stairs"]) == (0.25, 1.0)
     assert main(["agent", "stairs", "--policy", "rp", "--course", "flat", "--out", str(tmp_path)]) == 2
     assert "not on stairs" in capsys.readouterr().err

@@ -150,7 +150,8 @@ def run_stairs(args: argparse.Namespace) -> int:
         raise CliError(f"--course {args.course} is on {course.terrain!r}, not on stairs")
     written = stairs_figure(stairs_diagnosis(policies, course), course, Path(args.out))
     emit(
-        {kind: written[kind] for kind in ("png", "json", "csv")} | {"runs": written["table"]["runs"]},
+        {kind: written[kind] for kind in ("png", "gait_png", "json", "csv")}
+        | {"runs": written["table"]["runs"]},
         args.json,
     )
     return 0
@@ -313,7 +314,8 @@ def register(subparsers) -> None:
 
     p = group.add_parser(
         "stairs",
-        help="why agents fall on a stairs course: their paths, falls, swing past the side, command following",
+        help="why agents fall on a stairs course: their paths, falls, swing past the side, command "
+        "following, and the step and ride heights and clock rate the kernel was given",
     )
     p.add_argument(
         "--policy",

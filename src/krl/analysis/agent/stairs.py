@@ -12,7 +12,10 @@ For every policy and start of the stairs course, :func:`stairs_diagnosis` traces
 
 :func:`stairs_figure` draws the runs from above over the stairs' outline with the course's commanded paths
 (an ideal follower, exactly and through a 0.3 s lag: :meth:`krl.eval.courses.Course.commanded_path`), and
-the two measures of command following against the swing on the landing.
+the two measures of command following against the swing on the landing; :func:`gait_figure` draws, for the
+same runs, what the kernel was asked for over time (the step and ride heights and the gait clock's rate: a
+gait-driving agent's choices, else the nominal ones) under the ground the trunk was over, and measures them
+over the flights and the landing.
 """
 
 from __future__ import annotations
@@ -99,16 +102,45 @@ def run_summary(trace: dict[str, np.ndarray], metrics: dict[str, Any], geometry:
     }
 
 
+GAIT_INPUTS: dict[str, int] = {"step_height": 3, "ride_height": 4, "clock_rate": 5}
+"""The kernel's gait inputs a run's figure draws: column in a trace's ``gait_inputs`` (units: m, m, 1)."""
+
+
+def gait_on_stairs(trace: dict[str, np.ndarray], geometry: dict[str, float]) -> dict[str, Any]:
+    """Time series and means of a run's gait inputs (:data:`GAIT_INPUTS`) while its trunk is over the stairs.
+
+    Returns ``time`` [s] (T,), ``ground`` (the mean terrain height under the four feet [m], (T,)), each
+    input's series (T,), and ``NAME_on_stairs``: its mean over the steps whose trunk x lies between the
+    first riser and the far flight's end (NaN if none).
+    """
+    x = trace["base_pos"][:, 0]
+    over = (x > geometry["first_riser"]) & (x < geometry["stairs_end"])
+    series: dict[str, Any] = {"time": trace["time"], "ground": trace["ground"].mean(axis=1)}
+    for name, column in GAIT_INPUTS.items():
+        values = trace["gait_inputs"][:, column]
+        series[name] = values
+        series[f"{name}_on_stairs"] = float(values[over].mean()) if over.any() else math.nan
+    return series
+
+
 def stairs_diagnosis(policies: dict[str, str | Path], course: Course) -> dict[str, list[dict]]:
-    """``{label: [row per start]}`` (:func:`run_summary`, plus the base path ``xy``) for each policy file."""
+    """``{label: [row per start]}`` (:func:`run_summary`, the base path ``xy`` and :func:`gait_on_stairs`'s
+    ``gait``) for each policy file."""
     geometry = stairs_geometry(course)
     results: dict[str, list[dict]] = {}
     for label, path in policies.items():
         rows = []
         for start in range(len(course.starts)):
             trace, metrics = trace_course_run(path, course, start)
+            gait = gait_on_stairs(trace, geometry)
             rows.append(
-                {"start": start, **run_summary(trace, metrics, geometry), "xy": trace["base_pos"][:, :2]}
+                {
+                    "start": start,
+                    **run_summary(trace, metrics, geometry),
+                    **{f"{name}_on_stairs": gait[f"{name}_on_stairs"] for name in GAIT_INPUTS},
+                    "xy": trace["base_pos"][:, :2],
+                    "gait": gait,
+                }
             )
         results[label] = rows
     return results
@@ -126,13 +158,15 @@ CSV_COLUMNS: tuple[str, ...] = (
     "landing_max_abs_y_feet",
     "forward_speed_error",
     "yaw_rate_gain",
+    *(f"{name}_on_stairs" for name in GAIT_INPUTS),
 )
 """Columns of ``stairs-diagnosis.csv``: one row per run."""
 
 
 def stairs_figure(results: dict[str, list[dict]], course: Course, out_dir: str | Path) -> dict[str, Any]:
-    """Draw and write ``stairs-diagnosis.png``/``.json``/``.csv`` in ``out_dir`` (:func:`stairs_diagnosis`'s
-    results); returns the paths and the table."""
+    """Draw and write ``stairs-diagnosis.png``/``.json``/``.csv`` and ``stairs-gait.png``
+    (:func:`gait_figure`) in ``out_dir`` (:func:`stairs_diagnosis`'s results); returns the paths
+    (``gait_png`` the second figure's) and the table."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -158,7 +192,40 @@ def stairs_figure(results: dict[str, list[dict]], course: Course, out_dir: str |
     }
     written = write_figure(Path(out_dir), "stairs-diagnosis", fig, table, CSV_COLUMNS, rows)
     plt.close(fig)
+    written["gait_png"] = gait_figure(results, geometry, colours, Path(out_dir))
     return written
+
+
+def gait_figure(results, geometry: dict[str, float], colours: dict[str, str], out_dir: Path) -> str:
+    """Draw ``stairs-gait.png`` in ``out_dir``: per run (a line each, the policy's colour, x where it fell)
+    the ground under the feet, then each of :data:`GAIT_INPUTS` over time. Returns its path."""
+    import matplotlib.pyplot as plt
+
+    from krl.util.output import figure_bytes, write_atomic
+
+    units = {"ground": "ground under the feet [m]", "step_height": "step height [m]"}
+    units |= {"ride_height": "ride height [m]", "clock_rate": "gait clock rate"}
+    fig, axes = plt.subplots(len(units), 1, figsize=(9, 8), sharex=True)
+    for ax, (name, label) in zip(axes, units.items(), strict=True):
+        for policy, runs in results.items():
+            for i, run in enumerate(runs):
+                gait = run["gait"]
+                ax.plot(
+                    gait["time"], gait[name], color=colours[policy], lw=0.8, label=policy if i == 0 else None
+                )
+                if run["fell"]:
+                    ax.plot(gait["time"][-1], gait[name][-1], "x", color=colours[policy], ms=8, mew=2)
+        ax.set_ylabel(label, fontsize=8)
+        ax.grid(alpha=0.3)
+    axes[0].axhline(geometry["landing_height"], color="k", lw=0.8, ls="--")
+    axes[0].legend(fontsize=7, loc="upper right")
+    axes[0].set_title("what the kernel was asked for on the stairs (nominal unless the agent drives it)")
+    axes[-1].set_xlabel("time [s]")
+    fig.tight_layout()
+    path = out_dir / "stairs-gait.png"
+    write_atomic(path, figure_bytes(fig))
+    plt.close(fig)
+    return str(path)
 
 
 def _draw_paths(ax, results, course: Course, geometry: dict[str, float], colours: dict[str, str]) -> None:
