@@ -15,6 +15,10 @@ Measured in one run, on the training height field:
   rollouts: the rate of the second and third, each collection and PPO update included, as a long
   training runs (the workers' start and the first rollout are left out).
   ``train_ratio`` = train / (cores × bare) (target >= 0.3).
+
+The agent is the thesis's agent-rp (:class:`krl.agent.config.AgentConfig`'s defaults) unless a config is
+given (a gait-driving variant's run folder's ``config.json``, say): its action size, observation, kernel,
+terrains and PPO settings are what the environment and the training measure run.
 """
 
 from __future__ import annotations
@@ -31,7 +35,7 @@ import mujoco
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from krl.agent.config import DEFAULT_NUM_ENVS
+from krl.agent.config import AgentConfig
 from krl.robots.a1.constants import KP, STANDING_JOINT_ANGLES
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim
@@ -58,7 +62,7 @@ def _env_rate(config, num_envs: int, steps: int) -> float:
     env = ResidualVecEnv(config, num_envs, seed=0)
     env.reset()
     rng = np.random.default_rng(0)
-    actions = rng.uniform(-1, 1, (steps, num_envs, 12))
+    actions = rng.uniform(-1, 1, (steps, num_envs, *env.action_space.shape))
     start = time.perf_counter()
     for k in range(steps):
         env.step_async(actions[k])
@@ -66,12 +70,12 @@ def _env_rate(config, num_envs: int, steps: int) -> float:
     return steps * num_envs / (time.perf_counter() - start)
 
 
-def _policy_times(config, num_envs: int, repeats: int = 200) -> tuple[float, float]:
+def _policy_times(config, num_envs: int, action_size: int, repeats: int = 200) -> tuple[float, float]:
     from krl.agent.observation import observation_size
     from krl.agent.policy import Policy
 
     size = observation_size(config.observation.features)
-    widths = [size, *config.ppo.shared, *config.ppo.actor, 12]
+    widths = [size, *config.ppo.shared, *config.ppo.actor, action_size]
     rng = np.random.default_rng(0)
     layers = [
         (rng.standard_normal((widths[i + 1], widths[i])) * 0.1, np.zeros(widths[i + 1]))
@@ -89,19 +93,25 @@ def _policy_times(config, num_envs: int, repeats: int = 200) -> tuple[float, flo
 
 
 def bench_agent(
-    num_envs: int = DEFAULT_NUM_ENVS, steps: int = 300, repeats: int = 3, train_steps: int = 72_000
+    num_envs: int | None = None,
+    steps: int = 300,
+    repeats: int = 3,
+    train_steps: int = 72_000,
+    config: AgentConfig | None = None,
 ) -> dict:
-    """Run the measurements (module docstring); medians of ``repeats`` alternating loops."""
-    from krl.agent.config import AgentConfig
+    """Run the measurements (module docstring); medians of ``repeats`` alternating loops. ``num_envs``:
+    robots per process (default: the config's, :data:`krl.agent.config.DEFAULT_NUM_ENVS` for agent-rp)."""
     from krl.agent.train import train
 
-    config = AgentConfig(num_envs=num_envs)
+    config = config or AgentConfig()
+    num_envs = num_envs or config.num_envs
+    config = replace(config, num_envs=num_envs)
     bare, env = [], []
     with threadpool_limits(1):
         for _ in range(repeats):
             bare.append(_bare_rate(steps * 4))
             env.append(_env_rate(config, num_envs, steps))
-        batched_us, single_us = _policy_times(config, num_envs)
+        batched_us, single_us = _policy_times(config, num_envs, config.residual.action_size)
     bare_rate, env_rate = statistics.median(bare), statistics.median(env)
     cores = os.cpu_count() or 1
     rollout = max(config.ppo.batch_size, train_steps // 3)
@@ -131,6 +141,7 @@ def bench_agent(
         "benchmark": "agent",
         "terrain": "heightfield",
         "num_envs": num_envs,
+        "action_size": config.residual.action_size,
         "bare_steps_per_s": round(bare_rate, 1),
         "env_steps_per_s": round(env_rate, 1),
         "env_ratio": round(env_rate / bare_rate, 3),

@@ -93,6 +93,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from krl.bench.agent import bench_agent
 
         options = given(num_envs=args.num_envs, steps=args.steps, repeats=args.repeats)
+        if args.config:
+            from krl.agent.config import AgentConfig
+
+            options["config"] = AgentConfig.load(args.config)
         result = bench_agent(**options, **given(train_steps=args.train_steps))
     else:  # argparse restricts the choices
         raise CliError(f"unknown benchmark {args.target!r}")
@@ -130,6 +134,7 @@ def register(subparsers) -> None:
     add_terrain_arguments(p)
     p.set_defaults(func=cmd_view)
 
+    from krl.agent.config import DEFAULT_NUM_ENVS
     from krl.bench.agent import bench_agent
     from krl.bench.mpc import bench_mpc
     from krl.bench.sim import bench_sim
@@ -156,12 +161,18 @@ def register(subparsers) -> None:
     p.add_argument(
         "--num-envs",
         type=int,
-        help=f"agent: robots per environment process (default {default_of(bench_agent, 'num_envs')})",
+        help="agent: robots per environment process "
+        f"(default: the config's, {DEFAULT_NUM_ENVS} for agent-rp)",
     )
     p.add_argument(
         "--train-steps",
         type=int,
         help="agent: env steps of the PPO training measurement "
         f"(default {default_of(bench_agent, 'train_steps')})",
+    )
+    p.add_argument(
+        "--config",
+        help="agent: an agent config file (.json or .toml, such as a run folder's config.json; "
+        "default: the thesis's agent-rp)",
     )
     p.set_defaults(func=cmd_bench)

@@ -1,0 +1,26 @@
+"""krl bench agent measures the agent it is given: a gait-driving config's action size reaches the
+environment, the policy and the training measurement."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+from krl.agent.config import AgentConfig, ResidualConfig
+from krl.cli import main
+
+
+def test_bench_agent_runs_a_given_config(tmp_path, capsys):
+    gait = replace(
+        AgentConfig(num_envs=3),
+        residual=ResidualConfig(kernel="ext", drive_heights=True, drive_rhythm=True),
+    )
+    path = tmp_path / "gait.json"
+    path.write_text(json.dumps(gait.to_json()))
+    small = ["--steps", "10", "--repeats", "1", "--train-steps", "1"]
+    assert main(["bench", "agent", "--config", str(path), *small, "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert (result["num_envs"], result["action_size"]) == (3, 15)  # the config's robots and action
+    assert result["env_steps_per_s"] > 0 and result["train_steps"] > 0
+    assert main(["bench", "agent", "--config", str(tmp_path / "missing.json"), *small]) == 2
+    assert "missing.json" in capsys.readouterr().err
