@@ -13,6 +13,7 @@ from agent_fakes import make_policy
 
 from krl.agent.action import action_parts
 from krl.agent.config import AgentConfig, EnvConfig, ResidualConfig
+from krl.agent.policy import load_policy
 from krl.agent.train import _env_seed, train
 from krl.analysis.agent import heldout
 from krl.analysis.agent.heldout import HELDOUT_SEED, drive_usage, group_rows
@@ -177,6 +178,10 @@ def test_choose_names_the_chosen_policy_in_json_and_table(tmp_path, tiny_group, 
     )
     assert result["choice"]["chosen"] == "q" and result["choice"]["tied"] == ["q", "p"]
     assert "Chosen: **q**" in (out / "heldout.md").read_text()
+    choice = json.loads((out / "choice.json").read_text())
+    assert choice["chosen"] == "q" and len(choice["policies"]) == 2
+    recipe = AgentConfig.load(out / "chosen-config.json")  # what krl agent train --config reads
+    assert recipe == load_policy(choice["policies"][0]).config and recipe.env.episode_time == 0.5
 
 
 def test_a_bad_choice_fails_before_walking(tmp_path, capsys):
@@ -185,3 +190,14 @@ def test_a_bad_choice_fails_before_walking(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "--choose 'b' is no --policy label (labels: a)" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "out").exists()
+
+
+def test_a_choice_of_policies_trained_differently_has_no_recipe(tmp_path, small_config):
+    paths = [
+        make_policy(replace(small_config, env=EnvConfig(episode_time=t)), seed=1).save(tmp_path / f"{t}.npz")
+        for t in (0.5, 1.0)
+    ]
+    choice = {"chosen": "mixed", "tied": ["mixed"], "best_success_rate": 1.0, "tolerance": 1 / 32}
+    with pytest.raises(ValueError, match="'mixed' were trained with different configs"):
+        heldout.write_choice(choice, [(1, paths[0]), (2, paths[1])], tmp_path)
+    assert not (tmp_path / "choice.json").exists() and not (tmp_path / "chosen-config.json").exists()

@@ -199,6 +199,7 @@ def run_heldout(args: argparse.Namespace) -> int:
         choose,
         group_rows,
         policy_record,
+        write_choice,
         write_tables,
     )
     from krl.util.parallel import usable_cores
@@ -235,8 +236,13 @@ def run_heldout(args: argparse.Namespace) -> int:
                 records[label].append((seed, record))
     rows = group_rows(records)
     choice = choose(rows, candidates) if candidates else None
-    result = {"rows": rows, "written": write_tables(rows, records, out, choice)}
-    emit(result | ({"choice": choice} if choice else {}), args.json)
+    written = write_tables(rows, records, out, choice)
+    if choice:
+        try:
+            written |= write_choice(choice, groups[choice["chosen"]], out)
+        except ValueError as error:
+            raise CliError(str(error)) from None
+    emit({"rows": rows, "written": written} | ({"choice": choice} if choice else {}), args.json)
     return 0
 
 
@@ -365,7 +371,8 @@ def register(subparsers) -> None:
     p.add_argument("--episodes", type=int, default=32, help="episodes per policy file (default 32)")
     p.add_argument(
         "--choose",
-        help="LABEL,LABEL,...: choose one of these by held-out success, ties within one episode by targets",
+        help="LABEL,LABEL,...: choose one of these by held-out success, ties within one episode by targets; "
+        "writes choice.json and the chosen recipe's chosen-config.json",
     )
     p.add_argument("--workers", type=int, help="environment processes (default: one per usable core)")
     p.add_argument("--out", required=True, help="output folder: one record per policy file, heldout.md/.csv")

@@ -212,6 +212,26 @@ def choose(rows: list[dict[str, Any]], candidates: list[str]) -> dict[str, Any]:
     return {"chosen": chosen, "tied": tied, "best_success_rate": best, "tolerance": tolerance}
 
 
+def write_choice(choice: dict[str, Any], files: list[tuple[int | None, Path]], out: Path) -> dict[str, str]:
+    """Write the chosen recipe: ``choice.json`` (:func:`choose`'s answer and the chosen group's policy
+    files) and ``chosen-config.json``, the config its policies were trained with, for
+    ``krl agent train --config`` to train more seeds of it.
+
+    Raises:
+        ValueError: the chosen group's policies were trained with different configs (no one recipe).
+    """
+    configs = [load_policy(path).config for _, path in files]
+    if any(config != configs[0] for config in configs[1:]):
+        raise ValueError(
+            f"the policies of {choice['chosen']!r} were trained with different configs: no recipe"
+        )
+    config_path = out / "chosen-config.json"
+    write_atomic(config_path, json.dumps(configs[0].to_json(), indent=1) + "\n")
+    record = {**choice, "policies": [str(path) for _, path in files], "config": str(config_path)}
+    write_atomic(out / "choice.json", json.dumps(json_value(record), indent=1) + "\n")
+    return {"choice": str(out / "choice.json"), "chosen_config": str(config_path)}
+
+
 def write_tables(
     rows: list[dict[str, Any]],
     records: dict[str, list[tuple[int | None, dict[str, Any]]]],
