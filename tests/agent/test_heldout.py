@@ -198,6 +198,6 @@ def test_a_choice_of_policies_trained_differently_has_no_recipe(tmp_path, small_
         for t in (0.5, 1.0)
     ]
     choice = {"chosen": "mixed", "tied": ["mixed"], "best_success_rate": 1.0, "tolerance": 1 / 32}
-    with pytest.raises(ValueError, match="'mixed' were trained with different configs"):
+    with pytest.raises(ValueError, match="'mixed' were trained with different recipes"):
         heldout.write_choice(choice, [(1, paths[0]), (2, paths[1])], tmp_path)
     assert not (tmp_path / "choice.json").exists() and not (tmp_path / "chosen-config.json").exists()

@@ -27,7 +27,7 @@ import numpy as np
 
 from krl.agent.action import DRIVE_PARTS, ActionPart, action_parts
 from krl.agent.callbacks import SUCCESS_TARGETS
-from krl.agent.policy import check_kernel_file, load_policy
+from krl.agent.policy import RECIPE_FIELDS, check_kernel_file, load_policy
 from krl.agent.process_vec_env import ProcessVecEnv
 from krl.kernel.model import load_kernel
 from krl.util.hashing import file_sha256
@@ -214,19 +214,19 @@ def choose(rows: list[dict[str, Any]], candidates: list[str]) -> dict[str, Any]:
 
 def write_choice(choice: dict[str, Any], files: list[tuple[int | None, Path]], out: Path) -> dict[str, str]:
     """Write the chosen recipe: ``choice.json`` (:func:`choose`'s answer and the chosen group's policy
-    files) and ``chosen-config.json``, the config its policies were trained with, for
+    files) and ``chosen-config.json``, the config its first policy was trained with, for
     ``krl agent train --config`` to train more seeds of it.
 
     Raises:
-        ValueError: the chosen group's policies were trained with different configs (no one recipe).
+        ValueError: the chosen policies differ in a recipe setting (:data:`krl.agent.policy.RECIPE_FIELDS`;
+            a seed group is refused earlier for it).
     """
-    configs = [load_policy(path).config for _, path in files]
-    if any(config != configs[0] for config in configs[1:]):
-        raise ValueError(
-            f"the policies of {choice['chosen']!r} were trained with different configs: no recipe"
-        )
+    configs = [load_policy(path).config.to_json() for _, path in files]
+    recipes = [{key: config[key] for key in RECIPE_FIELDS} for config in configs]
+    if any(recipe != recipes[0] for recipe in recipes[1:]):
+        raise ValueError(f"the policies of {choice['chosen']!r} were trained with different recipes")
     config_path = out / "chosen-config.json"
-    write_atomic(config_path, json.dumps(configs[0].to_json(), indent=1) + "\n")
+    write_atomic(config_path, json.dumps(configs[0], indent=1) + "\n")
     record = {**choice, "policies": [str(path) for _, path in files], "config": str(config_path)}
     write_atomic(out / "choice.json", json.dumps(json_value(record), indent=1) + "\n")
     return {"choice": str(out / "choice.json"), "chosen_config": str(config_path)}
