@@ -1,0 +1,88 @@
+"""examples/gait/agent-gait.sh, run against a stand-in ``krl`` that logs its arguments: the steps in order,
+the chosen variant's seeds and recipe, the evaluation without the chosen variant twice, and one SIGTERM
+reaching the running command."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[2] / "examples" / "gait" / "agent-gait.sh"
+
+STAND_IN = r"""#!/usr/bin/env bash
+# logs its arguments; heldout --choose writes a choice; a SLOW command waits for a signal
+echo "$*" >> "$LOG"
+trap 'echo "TERM $1 $2" >> "$LOG"; kill $nap; exit 130' TERM
+if [ "$1 $2" = "$SLOW" ]; then sleep 60 & nap=$!; touch "$LOG.started"; wait; fi
+if [ "$1 $2" = "agent heldout" ]; then
+  out=$(echo "$*" | sed -E 's/.*--out ([^ ]+).*/\1/')
+  mkdir -p "$out"
+  echo '{"chosen": "rhythm"}' > "$out/choice.json"
+  echo '{}' > "$out/chosen-config.json"
+fi
+"""
+
+
+@pytest.fixture
+def workspace(tmp_path):
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    (bin_dir / "krl").write_text(STAND_IN)
+    (bin_dir / "krl").chmod(0o755)
+    trials = tmp_path / "runs" / "agent-studies" / "gait-ablation" / "trials" / "list"
+    for seed in (150, 215):
+        (trials / f"rhythm-seed{seed}").mkdir(parents=True)
+        (trials / f"rhythm-seed{seed}" / "policy.npz").write_bytes(f"policy {seed}".encode())
+    env = os.environ | {
+        "PATH": f"{bin_dir}:{os.environ['PATH']}",
+        "LOG": str(tmp_path / "krl.log"),
+        "SLOW": "",
+        "RUNS": "runs",
+        "EVAL": "evaluations/gait",
+        "REPORT": "report",
+    }
+    return tmp_path, env
+
+
+def test_the_pipeline_runs_its_steps_in_order_with_the_chosen_recipe(workspace):
+    root, env = workspace
+    done = subprocess.run(["bash", str(SCRIPT)], cwd=root, env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    lines = (root / "krl.log").read_text().splitlines()
+    assert [" ".join(line.split()[:2]) for line in lines] == [
+        "agent study",
+        "agent heldout",
+        *(["agent train"] * 2),
+        "evaluate --controller",
+        "report --results",
+    ]
+    assert "--choose heights,rhythm,both,steer-both" in lines[1]
+    assert "--policy residual-ext=runs/agent-studies/gait-ablation/trials/list/residual-ext-seed*" in lines[1]
+    trains = sorted(lines[2:4])
+    assert trains[0].startswith("agent train --out runs/agent-gait/seed345 --seed 345")
+    assert all("--config runs/heldout-gait/chosen-config.json" in line for line in trains)
+    for seed in (150, 215):  # the chosen variant's ablation runs are agent-gait's first two seeds
+        assert (root / f"runs/agent-gait/seed{seed}/policy.npz").read_bytes() == f"policy {seed}".encode()
+    evaluate = lines[4]
+    assert "--controller agent:runs/agent-gait " in evaluate and "rhythm-seed*" not in evaluate
+    assert evaluate.count("-seed*") == 4 and "--attempts 50 --friction-sweep" in evaluate
+
+
+def test_one_sigterm_reaches_the_running_command_and_stops_the_pipeline(workspace):
+    root, env = workspace
+    script = subprocess.Popen(["bash", str(SCRIPT)], cwd=root, env=env | {"SLOW": "agent study"})
+    started = root / "krl.log.started"
+    deadline = time.monotonic() + 30
+    while not started.exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert started.exists()
+    script.send_signal(signal.SIGTERM)
+    assert script.wait(timeout=30) == 130
+    log = (root / "krl.log").read_text().splitlines()
+    assert log[-1] == "TERM agent study"
+    assert not any(step in line for line in log for step in ("heldout", "train", "evaluate"))
