@@ -70,12 +70,12 @@ def _env_rate(config, num_envs: int, steps: int) -> float:
     return steps * num_envs / (time.perf_counter() - start)
 
 
-def _policy_times(config, num_envs: int, action_size: int, repeats: int = 200) -> tuple[float, float]:
+def _policy_times(config, num_envs: int, repeats: int = 200) -> tuple[float, float]:
     from krl.agent.observation import observation_size
     from krl.agent.policy import Policy
 
     size = observation_size(config.observation.features)
-    widths = [size, *config.ppo.shared, *config.ppo.actor, action_size]
+    widths = [size, *config.ppo.shared, *config.ppo.actor, config.residual.action_size]
     rng = np.random.default_rng(0)
     layers = [
         (rng.standard_normal((widths[i + 1], widths[i])) * 0.1, np.zeros(widths[i + 1]))
@@ -111,7 +111,7 @@ def bench_agent(
         for _ in range(repeats):
             bare.append(_bare_rate(steps * 4))
             env.append(_env_rate(config, num_envs, steps))
-        batched_us, single_us = _policy_times(config, num_envs, config.residual.action_size)
+        batched_us, single_us = _policy_times(config, num_envs)
     bare_rate, env_rate = statistics.median(bare), statistics.median(env)
     cores = os.cpu_count() or 1
     rollout = max(config.ppo.batch_size, train_steps // 3)
