@@ -82,6 +82,34 @@ def test_both_agents_are_trained_and_scored_from_each_chosen_seed(tmp_path):
         plan(tmp_path, tmp_path, seeds=[150, 150])
 
 
+def test_agent_gait_is_chosen_from_the_ablation_on_the_pipelines_kernel_and_trained_for_the_other_seeds(
+    tmp_path,
+):
+    steps = {step.name: step for step in plan(tmp_path, tmp_path / "docs", seeds=[345, 150, 215])}
+    ablation = steps["gait-ablation"]
+    assert "--seeds 345,150 --jobs 2" in ablation.command
+    assert json.loads(ablation.config[1]) == {"residual": {"kernel": f"{tmp_path}/kernel-ext/kernel.npz"}}
+    trials = f"{tmp_path}/agent-studies/gait-ablation/trials/list"
+    heldout = steps["heldout-gait"].command
+    assert f"--policy heights={trials}/heights-seed*" in heldout
+    assert "--choose heights,rhythm,both,steer-both" in heldout
+    assert f"--seed-group {tmp_path}/agent-gait" in heldout
+    assert [name for name in steps if name.startswith("agent-gait-seed")] == ["agent-gait-seed215"]
+    assert f"--config {tmp_path}/heldout-gait/chosen-config.json" in steps["agent-gait-seed215"].command
+    scoring = steps["evaluate-gait"].command
+    assert (
+        f"--controller agent:{tmp_path}/agent-gait --controller agent:{trials}/residual-ext-seed*" in scoring
+    )
+    assert "--course harder --push-sweep --attempts 50 --friction-sweep" in scoring
+    assert list(steps)[-2:] == ["evaluate-gait", "report-gait"]
+    quick = {step.name: step for step in plan(tmp_path, tmp_path / "docs", quick=True)}
+    assert (
+        "--seeds 150 --jobs 2" in quick["gait-ablation"].command
+        and "--budget" in quick["gait-ablation"].command
+    )
+    assert not [name for name in quick if name.startswith("agent-gait-seed")]
+
+
 def test_reproduce_seeds_option_reaches_the_plan(tmp_path, capsys):
     assert main(["reproduce", "--dry-run", "--seeds", "215", "--runs", str(tmp_path)]) == 0
     printed = capsys.readouterr().out

@@ -56,14 +56,11 @@ together "krl agent study gait-ablation --out $ABLATION --seeds 150,215 --jobs 2
 
 policies=""
 for variant in "${VARIANTS[@]}"; do policies+=" --policy '$variant=$TRIALS/$variant-seed*'"; done
-together "krl agent heldout$policies --episodes 32 --choose $DRIVING --out $HELDOUT --quiet"
+# the ablation's runs of the chosen variant join the seed group $GAIT as two of agent-gait's seeds
+together "krl agent heldout$policies --episodes 32 --choose $DRIVING --out $HELDOUT --seed-group $GAIT --quiet"
 chosen=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["chosen"])' "$HELDOUT/choice.json")
 echo "chosen on held-out episodes: $chosen"
 
-for seed in 150 215; do  # the ablation's runs of the chosen variant are two of agent-gait's seeds
-  mkdir -p "$GAIT/seed$seed"
-  cp -n "$TRIALS/$chosen-seed$seed/policy.npz" "$GAIT/seed$seed/policy.npz"
-done
 together \
   "krl agent train --out $GAIT/seed345 --seed 345 --config $HELDOUT/chosen-config.json --quiet" \
   "krl agent train --out $GAIT/seed556 --seed 556 --config $HELDOUT/chosen-config.json --quiet"

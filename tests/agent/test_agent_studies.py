@@ -320,6 +320,19 @@ def test_the_alternative_study_gives_the_kernel_commands_and_measures_zero_comma
     assert [row.split(",")[0] for row in rows[1:]] == ["follow", "half", "zero"]
 
 
+def test_a_study_whose_trials_fail_exits_non_zero_naming_the_first_error(tmp_path, capsys):
+    tiny = tmp_path / "tiny.json"
+    tiny.write_text(json.dumps({**TINY_STUDY, "env": {"episode_time": 60.0}}))  # no episode ends
+    argv = ["agent", "study", "alternative", "--out", str(tmp_path / "s"), "--seeds", "7"]
+    argv += ["--budget", "256", "--config", str(tiny), "--workers", "1", "--jobs", "1", "--quiet", "--json"]
+    assert main(argv) == 1
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)[LIST]["failed"] == 2  # the status is still printed
+    err = captured.err.strip()
+    assert err.startswith("krl: 2 trial(s) of study alternative failed, first residual-seed7: StudyError:")
+    assert "logged no rollout with an ended episode" in err and len(err.splitlines()) == 1
+
+
 def test_the_gait_ablation_adds_one_drive_at_a_time_to_the_final_agent():
     study = STUDIES["gait-ablation"]
     configs = {
@@ -339,6 +352,11 @@ def test_the_gait_ablation_adds_one_drive_at_a_time_to_the_final_agent():
         "residual",
         "foot_contact",
     )
+    own = StudySettings.of(study, shared={"residual": {"kernel": "runs/kernel-ext/kernel.npz"}})
+    for variant in study.variants:  # krl reproduce's own kernel-ext, in place of the shipped one
+        config = runner.trial_config(study, own, variant.overrides, study.budget)
+        assert config.residual.kernel == "runs/kernel-ext/kernel.npz"
+        assert config.residual.action_size == sizes[variant.name]
 
 
 def test_the_reward_features_are_table_4_7():

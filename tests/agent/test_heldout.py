@@ -184,6 +184,31 @@ def test_choose_names_the_chosen_policy_in_json_and_table(tmp_path, tiny_group, 
     assert recipe == load_policy(choice["policies"][0]).config and recipe.env.episode_time == 0.5
 
 
+def test_the_chosen_runs_join_a_seed_group_and_a_different_policy_there_is_kept(tmp_path, tiny_group, capsys):
+    group = tmp_path / "agent-chosen"
+    args = ["--policy", f"p={tiny_group}", "--choose", "p", "--out", str(tmp_path / "heldout")]
+    result = heldout_json(capsys, *args, "--seed-group", str(group))
+    assert result["written"]["seed_group"] == [str(group / "seed1"), str(group / "seed2")]
+    for seed in (1, 2):
+        run = tmp_path / f"tiny-seed{seed}"
+        for name in ("policy.npz", "config.json", "run.json", "progress.csv"):
+            assert (group / f"seed{seed}" / name).read_bytes() == (run / name).read_bytes()
+        assert not (group / f"seed{seed}" / "checkpoints").exists()
+    assert heldout_json(capsys, *args, "--seed-group", str(group))["written"]["seed_group"] == []
+    (group / "seed2" / "policy.npz").write_bytes((group / "seed1" / "policy.npz").read_bytes())
+    (group / "seed1" / "policy.npz").unlink()
+    assert main(["agent", "heldout", *args, "--seed-group", str(group), "--episodes", "3", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"{group / 'seed2'} holds another policy than" in err and len(err.splitlines()) == 1
+    assert not (group / "seed1" / "policy.npz").exists()  # nothing copied
+
+
+def test_a_seed_group_needs_a_choice(tmp_path, capsys):
+    args = ["agent", "heldout", "--policy", "a=rp", "--seed-group", str(tmp_path / "g")]
+    assert main([*args, "--out", str(tmp_path), "--quiet"]) == 2
+    assert "--seed-group needs --choose" in capsys.readouterr().err
+
+
 def test_a_bad_choice_fails_before_walking(tmp_path, capsys):
     args = ["agent", "heldout", "--policy", "a=rp", "--choose", "a,b", "--out", str(tmp_path / "out")]
     assert main([*args, "--quiet"]) == 2

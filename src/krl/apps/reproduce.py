@@ -358,11 +358,99 @@ def _scoring_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
     )
 
 
+GAIT_ABLATION_SEEDS: int = 2
+"""How many of the training seeds (the first) the gait ablation trains each variant from, as
+``examples/gait/agent-gait.sh`` (150 and 215); agent-gait's other seeds train from the chosen recipe."""
+_QUICK_GAIT_BUDGET: int = 8000
+"""Env steps of each quick gait-ablation run: two of the quick agent's rollouts."""
+_QUICK_GAIT_EPISODE: float = 10.0
+"""Episode length of the quick gait-ablation runs [s]: 1000 steps of each of their 8 robots end two
+episodes, as a study's run must (a 60 s episode would need 24 000 steps)."""
+_TRIALS = "{runs}/agent-studies/gait-ablation/trials/list"
+"""Where the gait ablation's run folders are (``VARIANT-seedS``)."""
+
+
+def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
+    """agent-gait as ``examples/gait/agent-gait.sh`` makes it (docs/agent-gait.md): the ablation on the
+    pipeline's kernel-ext, the choice on held-out episodes, the chosen recipe's other seeds, then every
+    variant and the baselines on the thesis's and the harder courses, the push and the friction sweeps."""
+    from krl.agent.studies.designs import GAIT_DRIVES
+
+    variants = [name for name, *_ in GAIT_DRIVES]
+    ablation, more = seeds[:GAIT_ABLATION_SEEDS], seeds[GAIT_ABLATION_SEEDS:]
+    kernel = {"residual": {"kernel": "{runs}/kernel-ext/kernel.npz"}}
+    quick = {key: value for key, value in _QUICK_AGENT.items() if key != "total_steps"}
+    quick["env"] = {"episode_time": _QUICK_GAIT_EPISODE}  # a study's run must end episodes
+    policies = " ".join(f"--policy {name}={_TRIALS}/{name}-seed*" for name in variants)
+    chosen = "{runs}/heldout-gait/chosen-config.json"
+    return (
+        Row(
+            "gait-ablation",
+            "the gait ablation's runs",
+            ByMode(66 * len(variants) * len(ablation), 6),
+            (
+                "agent study gait-ablation --out {runs}/agent-studies/gait-ablation",
+                f"--seeds {','.join(map(str, ablation))} --jobs 2 --config {{config}}",
+                ByMode("", f"--budget {_QUICK_GAIT_BUDGET}"),
+                "--quiet",
+            ),
+            config=ByMode(kernel, {**kernel, **quick}),
+        ),
+        Row(
+            "heldout-gait",
+            "agent-gait chosen on held-out episodes",
+            ByMode(25, 2),
+            (
+                f"agent heldout {policies}",
+                ByMode("--episodes 32", "--episodes 2"),
+                f"--choose {','.join(variants[1:])} --out {{runs}}/heldout-gait",
+                "--seed-group {runs}/agent-gait --quiet",
+            ),
+        ),
+        *(
+            Row(
+                f"agent-gait-seed{seed}",
+                f"agent-gait (seed {seed})",
+                120,
+                (
+                    f"agent train --out {{runs}}/agent-gait/seed{seed} --seed {seed} --config {chosen}",
+                    "--quiet",
+                ),
+            )
+            for seed in more
+        ),
+        Row(
+            "evaluate-gait",
+            "agent-gait's tables' runs",
+            # about 35 min per agent seed (push sweep, friction sweep, harder courses), 15 per expert, kernel;
+            # the chosen variant's runs are scored twice, as the variant and as agent-gait's seeds
+            ByMode(35 * (2 * len(seeds) + len(variants) * len(ablation)) + 30, 5),
+            (
+                "evaluate --controller agent:{runs}/agent-gait",
+                " ".join(f"--controller agent:{_TRIALS}/{name}-seed*" for name in variants),
+                "--controller agent:{runs}/agent-rp --controller expert --controller kernel:{kernel}",
+                ByMode(
+                    "--course thesis --course harder --push-sweep --attempts 50 --friction-sweep",
+                    "--course flat --push-sweep --attempts 1 --friction-sweep --frictions 0.5 "
+                    "--friction-course flat",
+                ),
+                "--workers 2 --out {runs}/eval-gait --quiet",
+            ),
+        ),
+        Row(
+            "report-gait",
+            "agent-gait's tables",
+            0.2,
+            ("report --results {runs}/eval-gait --out {docs}/results/gait",),
+        ),
+    )
+
+
 def pipeline(seeds: Sequence[int]) -> tuple[Row, ...]:
     """Every step, in order (expert data -> kernels -> studies, figures -> agents of each seed ->
-    evaluation -> report) for the training ``seeds``."""
+    evaluation -> report -> agent-gait) for the training ``seeds``."""
     agents = tuple(_agent_row(agent, seed) for agent in AGENTS for seed in seeds)
-    return (*DATA_AND_KERNELS, *agents, *_scoring_rows(seeds))
+    return (*DATA_AND_KERNELS, *agents, *_scoring_rows(seeds), *_gait_rows(seeds))
 
 
 def plan(runs: Path, docs: Path, quick: bool = False, seeds: Sequence[int] | None = None) -> list[Step]:

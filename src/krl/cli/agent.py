@@ -195,6 +195,7 @@ def run_heldout(args: argparse.Namespace) -> int:
     from krl.agent.policy import policy_artifacts
     from krl.agent.process_vec_env import WorkerError
     from krl.analysis.agent.heldout import (
+        adopt_runs,
         check_candidates,
         choose,
         group_rows,
@@ -212,6 +213,8 @@ def run_heldout(args: argparse.Namespace) -> int:
         raise CliError(f"--workers must be at least 1, got {workers}")
     groups = labelled_policies(args.policy, policy_artifacts)
     candidates = [label.strip() for label in args.choose.split(",")] if args.choose else []
+    if args.seed_group and not candidates:
+        raise CliError("--seed-group needs --choose: it receives the chosen label's policies")
     try:  # a bad --choose fails before any episode is walked
         check_candidates(list(groups), candidates)
     except ValueError as error:
@@ -238,8 +241,11 @@ def run_heldout(args: argparse.Namespace) -> int:
     choice = choose(rows, candidates) if candidates else None
     written = write_tables(rows, records, out, choice)
     if choice:
+        chosen = groups[choice["chosen"]]
         try:
-            written |= write_choice(choice, groups[choice["chosen"]], out)
+            written |= write_choice(choice, chosen, out)
+            if args.seed_group:
+                written["seed_group"] = adopt_runs(choice["chosen"], chosen, Path(args.seed_group))
         except ValueError as error:
             raise CliError(str(error)) from None
     emit({"rows": rows, "written": written} | ({"choice": choice} if choice else {}), args.json)
@@ -373,6 +379,11 @@ def register(subparsers) -> None:
         "--choose",
         help="LABEL,LABEL,...: choose one of these by held-out success, ties within one episode by targets; "
         "writes choice.json and the chosen recipe's chosen-config.json",
+    )
+    p.add_argument(
+        "--seed-group",
+        help="with --choose: copy the chosen label's policies (and run files) into this seed group as "
+        "seed<S>/, beside the seeds chosen-config.json trains",
     )
     p.add_argument("--workers", type=int, help="environment processes (default: one per usable core)")
     p.add_argument("--out", required=True, help="output folder: one record per policy file, heldout.md/.csv")

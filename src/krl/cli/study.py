@@ -6,6 +6,7 @@ import argparse
 import multiprocessing
 import os
 import shlex
+import sys
 from pathlib import Path
 
 from krl.cli.common import CliError, emit, labelled_policies, parse_ints
@@ -115,7 +116,7 @@ def _alternative_measurement(design, settings, out: Path, command: str) -> list[
 
 def run_study(args: argparse.Namespace) -> int:
     from krl.agent.studies.designs import STUDIES
-    from krl.agent.studies.report import study_status, write_study_report
+    from krl.agent.studies.report import open_stages, study_status, trial_errors, write_study_report
     from krl.agent.studies.runner import StudyError, stored_settings
     from krl.util.parallel import usable_cores
 
@@ -145,7 +146,14 @@ def run_study(args: argparse.Namespace) -> int:
         _run_jobs(design.name, settings, out, url, args.heartbeat, args.quiet, jobs)
     except StudyError as error:
         raise CliError(str(error)) from None
-    emit(study_status(design, settings, url), args.json)
+    stages = open_stages(design, settings, url)
+    emit(study_status(design, settings, url, stages), args.json)
+    errors = trial_errors(stages)
+    if errors:  # a pipeline must not go on from a study whose runs did not finish
+        print(
+            f"krl: {len(errors)} trial(s) of study {design.name} failed, first {errors[0]}", file=sys.stderr
+        )
+        return 1
     return 0
 
 

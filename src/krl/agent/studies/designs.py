@@ -400,13 +400,14 @@ def _drive_filter(drives: dict[str, bool]) -> dict[str, float]:
 
 
 def _gait_variants() -> tuple[Variant, ...]:
-    """Each drive on top of the residuals, the policy observing what it drives beside the final set."""
+    """Each drive on top of the residuals (on the study base's kernel-ext), the policy observing what it
+    drives beside the final set."""
     return tuple(
         Variant(
             name,
             description,
             {
-                "residual": {"kernel": "ext", **drives, **_drive_filter(drives)},
+                "residual": {**drives, **_drive_filter(drives)},
                 "observation": {"features": [*CORE_FEATURES, *FINAL_OPTIONAL, *observed]},
             },
         )
@@ -453,7 +454,12 @@ STUDIES: dict[str, StudyDesign] = {
     "gait-ablation": StudyDesign(
         name="gait-ablation",
         title="ours: what driving the gait buys (issue #25)",
-        base={"num_envs": 16, "env": {"friction": list(GAIT_ABLATION_FRICTION)}},
+        # the kernel in the base, so a --config's (krl reproduce's own kernel-ext) can take its place
+        base={
+            "num_envs": 16,
+            "env": {"friction": list(GAIT_ABLATION_FRICTION)},
+            "residual": {"kernel": "ext"},
+        },
         budget=20_000_000,
         variants=_gait_variants(),
     ),

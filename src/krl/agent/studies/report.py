@@ -191,6 +191,21 @@ def open_stages(design: StudyDesign, settings: StudySettings, url: str) -> dict[
     return {stage: open_stage(design, settings, stage, url) for stage in stages}
 
 
+def trial_errors(stages: dict[str, Any]) -> list[str]:
+    """``KEY: error`` of every trial that failed with an error (surplus trials aside), by stage and trial
+    number; ``stages``: :func:`open_stages`'."""
+    from optuna.trial import TrialState
+
+    return [
+        f"{trial.user_attrs.get('key', trial.number)}: {trial.user_attrs['error']}"
+        for study in stages.values()
+        for trial in study.get_trials(deepcopy=False)
+        if trial.state == TrialState.FAIL
+        and "error" in trial.user_attrs
+        and not trial.user_attrs.get("surplus")
+    ]
+
+
 def study_status(
     design: StudyDesign, settings: StudySettings, url: str, stages: dict[str, Any] | None = None
 ) -> dict[str, Any]:
