@@ -1,105 +1,13 @@
-"""``krl reproduce``: every table and figure of ``docs/results`` and ``docs/figures`` from nothing.
-
-The pipeline is a table of ``krl`` commands in order (:func:`pipeline`: expert data -> kernels -> kernel
-studies and figures -> both agents from each training seed -> evaluation -> report), each with the wall time
-it took on the 2-core development machine (``docs/reproduce.md``); :func:`plan` fills in the folders, the
-mode and the seeds, giving one :class:`Step` per row. A finished step leaves a marker
-(``RUNS/.reproduce/<step>.json``, holding its command), so running ``krl reproduce`` again skips what is
-done and resumes the step that was interrupted (every long command it runs resumes by itself). With
-``--quick`` every step is cut down (tens of waypoints, a few epochs, a short agent training, one push per
-magnitude) into ``RUNS/quick``, whose documents go to ``RUNS/quick/docs``: the same pipeline in well under
-an hour here, never touching ``docs/``.
-"""
+"""The pipeline's steps in order (:func:`pipeline`), as rows of :mod:`krl.apps.reproduce.table`, with the
+wall time each took on the 2-core development machine (``docs/reproduce.md``)."""
 
 from __future__ import annotations
 
-import json
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
-from pathlib import Path
-from typing import Any, Generic, TypeVar
+from collections.abc import Sequence
+from typing import Any
 
-from krl.util.output import write_atomic
+from krl.apps.reproduce.table import ByMode, Fragment, Row
 from krl.util.thesis import COMPARISON_EPOCHS, THESIS_SEEDS
-
-
-@dataclass(frozen=True)
-class Step:
-    """One command of the pipeline."""
-
-    name: str
-    """File-name-safe name (the marker's)."""
-    argv: tuple[str, ...]
-    """The ``krl`` command's arguments."""
-    minutes: float
-    """Wall time it took (full) or should take (quick) on the 2-core development machine [min]."""
-    makes: str
-    """What it writes, for the plan."""
-    config: tuple[str, str] | None = None
-    """``(path, JSON text)`` of a config file the command reads, written just before it runs."""
-
-    @property
-    def command(self) -> str:
-        return "krl " + " ".join(self.argv)
-
-
-T = TypeVar("T")
-
-
-@dataclass(frozen=True)
-class ByMode(Generic[T]):
-    """A value that differs between the full pipeline and ``--quick``."""
-
-    full: T
-    quick: T
-
-    def pick(self, quick: bool) -> T:
-        return self.quick if quick else self.full
-
-
-Fragment = str | ByMode[str]
-"""Part of a command: space-separated template tokens (``{runs}``, ``{data}``, ... filled by
-:func:`_places`, ``{config}`` by the row), or one such string per mode ("" for no tokens)."""
-
-
-def _pick(value: Any, quick: bool) -> Any:
-    """``value`` for the mode: one side of a :class:`ByMode`, anything else as it is."""
-    return value.pick(quick) if isinstance(value, ByMode) else value
-
-
-def _fill(value: Any, places: Mapping[str, str]) -> Any:
-    """``value`` (a config: nested dicts) with every string's placeholders filled."""
-    if isinstance(value, str):
-        return value.format(**places)
-    if isinstance(value, dict):
-        return {key: _fill(item, places) for key, item in value.items()}
-    return value
-
-
-@dataclass(frozen=True)
-class Row:
-    """One step of the pipeline's table, in both modes; :meth:`step` makes its :class:`Step`."""
-
-    name: str
-    """File-name-safe name (the marker's)."""
-    makes: str
-    """What it writes, for the plan."""
-    minutes: ByMode[float] | float
-    """Wall time it took (full) or should take (quick) on the 2-core development machine [min]."""
-    argv: tuple[Fragment, ...]
-    """The ``krl`` command, as template fragments."""
-    config: ByMode[dict[str, Any]] | None = None
-    """Settings written as JSON to ``{config}`` (``RUNS/<name>.json``) just before the command runs."""
-
-    def step(self, places: Mapping[str, str], quick: bool) -> Step:
-        """This row with its placeholders filled, for the mode."""
-        places = {**places, "config": f"{places['runs']}/{self.name}.json"}
-        argv = tuple(token.format(**places) for part in self.argv for token in _pick(part, quick).split())
-        config = None
-        if self.config is not None:
-            config = (places["config"], json.dumps(_fill(self.config.pick(quick), places), indent=2) + "\n")
-        return Step(self.name, argv, _pick(self.minutes, quick), self.makes, config)
-
 
 COURSES: tuple[str, ...] = ("tabletop", "seesaw", "stairs", "sinusoid", "flat", "slope", "heightfield")
 """The courses pictured in ``docs/figures/courses``."""
@@ -113,7 +21,7 @@ AGENTS: tuple[str, ...] = ("rp", "base")
 agent-base (without it)."""
 
 
-def _places(runs: str, docs: str, seeds: Sequence[int]) -> dict[str, str]:
+def places(runs: str, docs: str, seeds: Sequence[int]) -> dict[str, str]:
     """What the templates' placeholders stand for, for the run folder ``runs``, documents ``docs`` and the
     training ``seeds`` (``{seed}`` is the first: the one kernel-ind the figures show)."""
     return {
@@ -451,73 +359,3 @@ def pipeline(seeds: Sequence[int]) -> tuple[Row, ...]:
     evaluation -> report -> agent-gait) for the training ``seeds``."""
     agents = tuple(_agent_row(agent, seed) for agent in AGENTS for seed in seeds)
     return (*DATA_AND_KERNELS, *agents, *_scoring_rows(seeds), *_gait_rows(seeds))
-
-
-def plan(runs: Path, docs: Path, quick: bool = False, seeds: Sequence[int] | None = None) -> list[Step]:
-    """The steps, in order, for the run folder ``runs``, the documents folder ``docs`` and the training
-    ``seeds`` (default: the thesis's four, :data:`QUICK_SEEDS` with ``quick``)."""
-    if quick:
-        runs, docs = runs / "quick", runs / "quick" / "docs"
-    seeds = tuple(seeds or (QUICK_SEEDS if quick else THESIS_SEEDS))
-    if len(set(seeds)) != len(seeds):
-        raise ValueError(f"seeds must differ, got {list(seeds)}")
-    places = _places(str(runs), str(docs), seeds)
-    return [row.step(places, quick) for row in pipeline(seeds)]
-
-
-def _marker(runs: Path, quick: bool, step: Step) -> Path:
-    return (runs / "quick" if quick else runs) / ".reproduce" / f"{step.name}.json"
-
-
-def is_done(runs: Path, quick: bool, step: Step) -> bool:
-    """Whether ``step`` finished (its marker exists and records the same command)."""
-    marker = _marker(runs, quick, step)
-    try:
-        return json.loads(marker.read_text()).get("argv") == list(step.argv)
-    except (OSError, ValueError):
-        return False
-
-
-def describe(steps: Sequence[Step], runs: Path, quick: bool) -> list[str]:
-    """The plan as text lines: per step whether it is done, its estimated time and its command."""
-    lines = []
-    left = 0.0
-    for number, step in enumerate(steps, start=1):
-        done = is_done(runs, quick, step)
-        left += 0.0 if done else step.minutes
-        status = "done" if done else f"~{step.minutes:g} min"
-        lines.append(f"{number:2d}. {step.name:18s} {status:>10s}  {step.makes}\n      {step.command}")
-    lines.append(f"left: about {left:.0f} min ({left / 60:.1f} h) on a 2-core machine")
-    return lines
-
-
-def reproduce(
-    runs: Path,
-    docs: Path,
-    quick: bool,
-    run: Callable[[list[str]], int],
-    log=print,
-    dry_run: bool = False,
-    seeds: Sequence[int] | None = None,
-) -> int:
-    """Print the plan (for ``seeds``, as :func:`plan`), then run each step that is not done with
-    ``run(argv) -> exit status``; stops at the first failing step (its exit status), returns 0 when
-    everything is done."""
-    steps = plan(runs, docs, quick, seeds)
-    for line in describe(steps, runs, quick):
-        log(line)
-    if dry_run:
-        return 0
-    for number, step in enumerate(steps, start=1):
-        if is_done(runs, quick, step):
-            continue
-        log(f"[{number}/{len(steps)}] {step.name}: {step.command}")
-        if step.config is not None:
-            write_atomic(Path(step.config[0]), step.config[1])
-        status = run(list(step.argv))
-        if status != 0:
-            log(f"step {step.name} failed (exit status {status}); fix it and run krl reproduce to resume")
-            return status
-        write_atomic(_marker(runs, quick, step), json.dumps({"argv": list(step.argv)}) + "\n")
-    log("everything is reproduced")
-    return 0
