@@ -81,3 +81,14 @@ def test_one_sigterm_reaches_the_running_command_and_stops_the_pipeline(workspac
     log = (root / "krl.log").read_text().splitlines()
     assert log[-1] == "TERM agent study"
     assert not any(step in line for line in log for step in ("heldout", "train", "evaluate"))
+
+
+def test_the_script_runs_the_studys_variants_and_chooses_among_its_driving_ones():
+    from krl.agent.studies.designs import GAIT_DRIVES
+
+    lines = SCRIPT.read_text().splitlines()
+    (variants,) = [line for line in lines if line.startswith("VARIANTS=")]
+    (driving,) = [line for line in lines if line.startswith("DRIVING=")]
+    names = [name for name, _, drives, _ in GAIT_DRIVES]
+    assert variants == f"VARIANTS=({' '.join(names)})"
+    assert driving == "DRIVING=" + ",".join(name for name, _, drives, _ in GAIT_DRIVES if drives)

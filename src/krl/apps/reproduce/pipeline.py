@@ -285,6 +285,7 @@ def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
     from krl.agent.studies.designs import GAIT_DRIVES
 
     variants = [name for name, *_ in GAIT_DRIVES]
+    driving = [name for name, _, drives, _ in GAIT_DRIVES if drives]  # agent-gait's candidates
     ablation, more = seeds[:GAIT_ABLATION_SEEDS], seeds[GAIT_ABLATION_SEEDS:]
     kernel = {"residual": {"kernel": "{runs}/kernel-ext/kernel.npz"}}
     quick = {key: value for key, value in _QUICK_AGENT.items() if key != "total_steps"}
@@ -311,7 +312,7 @@ def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
             (
                 f"agent heldout {policies}",
                 ByMode("--episodes 32", "--episodes 2"),
-                f"--choose {','.join(variants[1:])} --out {{runs}}/heldout-gait",
+                f"--choose {','.join(driving)} --out {{runs}}/heldout-gait",
                 "--seed-group {runs}/agent-gait --quiet",
             ),
         ),
