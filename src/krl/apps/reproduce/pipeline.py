@@ -271,9 +271,9 @@ GAIT_ABLATION_SEEDS: int = 2
 ``examples/gait/agent-gait.sh`` (150 and 215); agent-gait's other seeds train from the chosen recipe."""
 _QUICK_GAIT_BUDGET: int = 8000
 """Env steps of each quick gait-ablation run: two of the quick agent's rollouts."""
-_QUICK_GAIT_EPISODE: float = 10.0
-"""Episode length of the quick gait-ablation runs [s]: 1000 steps of each of their 8 robots end two
-episodes, as a study's run must (a 60 s episode would need 24 000 steps)."""
+_QUICK_GAIT_EPISODE: float = 2.0
+"""Episode length of the quick gait-ablation runs [s]: their 1000 control steps (200 Hz) of each of 8
+robots end two episodes, as a study's run must (a 60 s episode is 12 000 steps)."""
 _TRIALS = "{runs}/agent-studies/gait-ablation/trials/list"
 """Where the gait ablation's run folders are (``VARIANT-seedS``)."""
 
