@@ -6,6 +6,7 @@ import argparse
 import multiprocessing
 import os
 import shlex
+import sqlite3
 import sys
 from pathlib import Path
 
@@ -130,6 +131,14 @@ def run_study(args: argparse.Namespace) -> int:
     url = args.storage or f"sqlite:///{(out / 'study.db').resolve()}"
     jobs = args.jobs or max(1, usable_cores() // max(1, settings.workers))
     try:
+        if args.snapshot:
+            from krl.agent.studies.snapshot import snapshot_study
+
+            try:
+                emit(snapshot_study(out, url, Path(args.snapshot)), args.json)
+            except (FileNotFoundError, sqlite3.Error) as error:
+                raise CliError(f"cannot snapshot study {design.name}: {error}") from None
+            return 0
         if args.report:
             stored = stored_settings(design, url)
             if stored is None:
@@ -227,6 +236,12 @@ def register(group) -> None:
         help="level-base only: LABEL=POLICY to compare (default agent-base=base@150, agent-rp=rp@150)",
     )
     p.add_argument("--report-out", help="where --report writes (default OUT/report)")
+    p.add_argument(
+        "--snapshot",
+        metavar="DIR",
+        help="copy what the study needs to resume elsewhere into DIR (its SQLite database, consistent while "
+        "jobs write, and its run folders without TensorBoard files); nothing is trained",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run_study)

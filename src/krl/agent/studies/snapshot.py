@@ -1,0 +1,110 @@
+"""A study's snapshot: what it needs to resume on another machine, small enough to commit or copy.
+
+``krl agent study NAME --snapshot DIR`` copies, from the study's folder ``OUT``:
+
+* its SQLite storage ``study.db``, through SQLite's backup API, so the copy is consistent while the
+  study's jobs write (a PostgreSQL storage stays in its server: ``pg_dump`` is its tool);
+* each trial's run folder ``trials/<stage>/<entry>/`` without TensorBoard's event files, which repeat the
+  training log: its config, run record, training logs (``progress*.csv``), policy and checkpoints (a run
+  keeps only its latest).
+
+Every file is written through a temporary name and renamed, so a snapshot stopped halfway leaves each file
+whole, old or new; files of the snapshot's run folders that the study no longer has (an older checkpoint)
+are removed once the new ones are in place. Copying ``DIR`` back into ``OUT`` (``cp -r DIR/. OUT/``) and
+running the study command again resumes it (``docs/studies.md``).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import sqlite3
+import tempfile
+from pathlib import Path
+from typing import Any
+
+DATABASE = "study.db"
+"""A study's default SQLite storage file in its folder (``krl agent study``'s ``--storage`` default)."""
+
+LEFT_OUT_PREFIX = "events.out"
+"""TensorBoard's event files start so: the snapshot leaves them out."""
+
+
+def _copy_file(source: Path, target: Path) -> None:
+    """``source`` to ``target`` through a temporary file in ``target``'s folder and a rename."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        shutil.copy2(source, tmp)
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _backup_database(source: Path, target: Path) -> None:
+    """A consistent copy of the SQLite database ``source`` (others may be writing) at ``target``."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    for left in target.parent.glob(f".{target.name}.*.tmp"):  # of a backup stopped halfway
+        left.unlink()
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        reader, writer = sqlite3.connect(source), sqlite3.connect(tmp)
+        try:
+            reader.backup(writer)
+        finally:
+            reader.close()
+            writer.close()
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _snapshot_run(run: Path, target: Path) -> int:
+    """Copy the run folder ``run`` into ``target`` (event files left out) and remove what ``target`` has
+    beyond it; returns the bytes copied."""
+    kept = {
+        path.relative_to(run)
+        for path in run.rglob("*")
+        if path.is_file() and not path.name.startswith(LEFT_OUT_PREFIX)
+    }
+    for relative in sorted(kept):
+        _copy_file(run / relative, target / relative)
+    for path in sorted(target.rglob("*"), reverse=True):  # files before the folders holding them
+        relative = path.relative_to(target)
+        if path.is_file() and relative not in kept:
+            path.unlink()
+        elif path.is_dir() and not any(path.iterdir()):
+            path.rmdir()
+    return sum((run / relative).stat().st_size for relative in kept)
+
+
+def snapshot_study(out: Path, url: str, dest: Path) -> dict[str, Any]:
+    """Snapshot the study whose folder is ``out`` and storage ``url`` into ``dest`` (module docstring).
+
+    Returns ``database`` (the copy's path, or None for a server storage), ``runs`` (the run folders
+    copied, as ``stage/entry``) and ``bytes`` (what the run folders' copies hold).
+
+    Raises:
+        FileNotFoundError: ``out`` holds no trial run folder and the storage no SQLite file to copy.
+    """
+    database = None
+    if url.startswith("sqlite:///"):
+        source = Path(url.removeprefix("sqlite:///"))
+        if source.is_file():
+            database = (
+                dest / DATABASE if source.resolve() == (out / DATABASE).resolve() else dest / source.name
+            )
+            _backup_database(source, database)
+    runs = sorted(path for path in (out / "trials").glob("*/*") if path.is_dir())
+    if database is None and not runs:
+        raise FileNotFoundError(f"nothing to snapshot: no study database and no trial run folder in {out}")
+    copied = sum(_snapshot_run(run, dest / run.relative_to(out)) for run in runs)
+    return {
+        "database": None if database is None else str(database),
+        "runs": [str(run.relative_to(out / "trials")) for run in runs],
+        "bytes": copied,
+    }
