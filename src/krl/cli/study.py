@@ -119,6 +119,7 @@ def run_study(args: argparse.Namespace) -> int:
     from krl.agent.studies.designs import STUDIES
     from krl.agent.studies.report import open_stages, study_status, trial_errors, write_study_report
     from krl.agent.studies.runner import StudyError, stored_settings
+    from krl.agent.studies.snapshot import DATABASE, snapshot_study
     from krl.util.parallel import usable_cores
 
     if args.name == "level-base":
@@ -128,12 +129,10 @@ def run_study(args: argparse.Namespace) -> int:
     design = STUDIES[args.name]
     settings = _settings(args, design)
     out = Path(args.out or f"runs/agent-studies/{design.name}")
-    url = args.storage or f"sqlite:///{(out / 'study.db').resolve()}"
+    url = args.storage or f"sqlite:///{(out / DATABASE).resolve()}"
     jobs = args.jobs or max(1, usable_cores() // max(1, settings.workers))
     try:
         if args.snapshot:
-            from krl.agent.studies.snapshot import snapshot_study
-
             try:
                 emit(snapshot_study(out, url, Path(args.snapshot)), args.json)
             except (FileNotFoundError, sqlite3.Error) as error:

@@ -16,12 +16,11 @@ running the study command again resumes it (``docs/studies.md``).
 
 from __future__ import annotations
 
-import os
-import shutil
 import sqlite3
-import tempfile
 from pathlib import Path
 from typing import Any
+
+from krl.util.output import write_atomic
 
 DATABASE = "study.db"
 """A study's default SQLite storage file in its folder (``krl agent study``'s ``--storage`` default)."""
@@ -30,37 +29,18 @@ LEFT_OUT_PREFIX = "events.out"
 """TensorBoard's event files start so: the snapshot leaves them out."""
 
 
-def _copy_file(source: Path, target: Path) -> None:
-    """``source`` to ``target`` through a temporary file in ``target``'s folder and a rename."""
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        shutil.copy2(source, tmp)
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _backup_database(source: Path, target: Path) -> None:
     """A consistent copy of the SQLite database ``source`` (others may be writing) at ``target``."""
-    target.parent.mkdir(parents=True, exist_ok=True)
-    for left in target.parent.glob(f".{target.name}.*.tmp"):  # of a backup stopped halfway
+    for left in target.parent.glob(f".{target.name}.*.tmp"):  # of a snapshot stopped halfway
         left.unlink()
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
-    os.close(fd)
+    reader, memory = sqlite3.connect(source), sqlite3.connect(":memory:")
     try:
-        reader, writer = sqlite3.connect(source), sqlite3.connect(tmp)
-        try:
-            reader.backup(writer)
-        finally:
-            reader.close()
-            writer.close()
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        reader.backup(memory)
+        data = memory.serialize()
+    finally:
+        reader.close()
+        memory.close()
+    write_atomic(target, data)
 
 
 def _snapshot_run(run: Path, target: Path) -> int:
@@ -72,7 +52,7 @@ def _snapshot_run(run: Path, target: Path) -> int:
         if path.is_file() and not path.name.startswith(LEFT_OUT_PREFIX)
     }
     for relative in sorted(kept):
-        _copy_file(run / relative, target / relative)
+        write_atomic(target / relative, (run / relative).read_bytes())
     for path in sorted(target.rglob("*"), reverse=True):  # files before the folders holding them
         relative = path.relative_to(target)
         if path.is_file() and relative not in kept:

@@ -246,23 +246,22 @@ def adopt_runs(label: str, files: list[tuple[int | None, Path]], group: Path) ->
         ValueError: a policy without a seed, or a seed of ``group`` holding a different policy; nothing is
             written then.
     """
-    copies: list[tuple[Path, Path]] = []
+    copies: list[tuple[Path, Path]] = []  # (target, source), each seed's policy first
     for seed, policy in files:
         if seed is None:
             raise ValueError(f"{label!r} is one policy file without a seed: nothing to add to {group}")
         folder = group / f"seed{seed}"
-        present = folder / "policy.npz"
-        if present.exists():
-            if file_sha256(present) != file_sha256(policy):
+        if (folder / "policy.npz").exists():
+            if file_sha256(folder / "policy.npz") != file_sha256(policy):
                 raise ValueError(f"{folder} holds another policy than {policy}: nothing copied to {group}")
             continue
-        sources = [policy.parent / name for name in RUN_FILES] if policy.name == "policy.npz" else []
-        copies.append((folder, policy))
-        copies += [(folder, source) for source in sources if source.is_file()]
-    for folder, source in reversed(copies):  # each policy.npz last: a seed folder with one is complete
-        name = "policy.npz" if source.suffix == ".npz" else source.name
-        write_atomic(folder / name, source.read_bytes())
-    return sorted({str(folder) for folder, _ in copies})
+        copies.append((folder / "policy.npz", policy))
+        if policy.name == "policy.npz":  # a run folder's
+            copies += [(folder / name, policy.parent / name) for name in RUN_FILES]
+    for target, source in reversed(copies):  # each policy.npz last: a seed folder with one is complete
+        if source.is_file():
+            write_atomic(target, source.read_bytes())
+    return sorted({str(target.parent) for target, _ in copies})
 
 
 def write_tables(

@@ -274,7 +274,9 @@ _QUICK_GAIT_BUDGET: int = 8000
 _QUICK_GAIT_EPISODE: float = 2.0
 """Episode length of the quick gait-ablation runs [s]: their 1000 control steps (200 Hz) of each of 8
 robots end two episodes, as a study's run must (a 60 s episode is 12 000 steps)."""
-_TRIALS = "{runs}/agent-studies/gait-ablation/trials/list"
+_ABLATION = "{runs}/agent-studies/gait-ablation"
+"""The gait ablation's study folder."""
+_TRIALS = f"{_ABLATION}/trials/list"
 """Where the gait ablation's run folders are (``VARIANT-seedS``)."""
 
 
@@ -298,7 +300,7 @@ def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
             "the gait ablation's runs",
             ByMode(66 * len(variants) * len(ablation), 6),
             (
-                "agent study gait-ablation --out {runs}/agent-studies/gait-ablation",
+                f"agent study gait-ablation --out {_ABLATION}",
                 f"--seeds {','.join(map(str, ablation))} --jobs 2 --config {{config}}",
                 ByMode("", f"--budget {_QUICK_GAIT_BUDGET}"),
                 "--quiet",
