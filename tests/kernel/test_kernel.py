@@ -11,8 +11,9 @@ from krl.kernel.features import (
     split_by_target,
     stack_history,
 )
+from krl.kernel.fitting import build_network, export_weights
 from krl.kernel.model import Kernel, KernelFileError, NetworkConfig, load_kernel
-from krl.kernel.train import TrainConfig, _build_network, train_kernel
+from krl.kernel.train import TrainConfig, train_kernel
 
 
 def test_feature_layouts_hand_worked(columns):
@@ -60,11 +61,9 @@ def test_split_keeps_targets_whole_and_is_seeded():
 
 @pytest.mark.parametrize("batch_norm", [False, True])
 def test_numpy_inference_matches_torch_and_survives_a_round_trip(tmp_path, batch_norm):
-    from krl.kernel.train import _export_weights
-
     config = TrainConfig(network=NetworkConfig(hidden=(16, 8), batch_norm=batch_norm, activation="tanh"))
     torch.manual_seed(0)
-    net = _build_network(config, 7, 12)
+    net = build_network(config, 7, 12)
     if batch_norm:  # give the running statistics non-trivial values
         net.train()
         net(torch.randn(64, 7) * 3 + 1)
@@ -72,7 +71,7 @@ def test_numpy_inference_matches_torch_and_survives_a_round_trip(tmp_path, batch
     kernel = Kernel(
         "base",
         config.network,
-        _export_weights(net, config),
+        export_weights(net),
         np.zeros(7),
         np.ones(7),
         np.zeros(12),

@@ -1,10 +1,11 @@
-"""Training the kernel (thesis 4.2.6.3, Table 4.4): L1 loss, Adam, linear learning-rate decay.
+"""Training the kernel (thesis 4.2.6.3, Table 4.4) as a run: L1 loss, Adam, linear learning-rate decay.
 
 ``train_kernel`` fits a kernel variant on an expert dataset, validating on whole held-out targets
 (80/20 by default), with a progress bar, TensorBoard logs, early stopping on the validation loss and a
 checkpoint after every epoch from which an interrupted run resumes exactly. The figure reported as
 ``val_l1`` is the mean absolute error of the foot positions **in metres** over all outputs of the
 validation set (the thesis's "validation loss"; the network itself is trained on standardised outputs).
+The network and its optimisation are :mod:`krl.kernel.fitting`'s; this module runs them, resumably.
 """
 
 from __future__ import annotations
@@ -14,30 +15,30 @@ import json
 import os
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from krl.kernel.features import (
-    check_variant,
-    features_from_columns,
-    input_names,
-    labels_from_columns,
-    split_by_target,
+from krl.kernel.features import features_from_columns, input_names, labels_from_columns, split_by_target
+from krl.kernel.fitting import (
+    Learner,
+    Scaling,
+    Tensors,
+    TrainConfig,
+    build_learner,
+    export_weights,
+    standardise,
+    train_epoch,
+    validate,
 )
-from krl.kernel.model import Kernel, NetworkConfig
+from krl.kernel.model import Kernel
 from krl.util.output import write_atomic
 
 CHECKPOINT_NAME = "checkpoint.pt"
 KERNEL_NAME = "kernel.npz"
 CONFIG_NAME = "config.json"
-MIN_STD = 1e-6
-"""A feature or label whose training standard deviation is below this is constant: it is centred but not
-scaled [its own unit]."""
-VALIDATION_BATCH = 8192
-"""Rows per forward pass when validating (memory only; the result does not depend on it)."""
 
 _COLUMNS = (
     "v_cmd",
@@ -59,56 +60,6 @@ _COLUMNS = (
     "episode",
     "target_index",
 )
-
-
-@dataclass(frozen=True)
-class TrainConfig:
-    """Everything that determines a training run (saved beside its outputs)."""
-
-    variant: str = "base"
-    """Kernel variant (``krl.kernel.features.VARIANTS``)."""
-    network: NetworkConfig = field(default_factory=NetworkConfig)
-    """Architecture."""
-    learning_rate: float = 0.0024
-    """Initial Adam learning rate."""
-    lr_decay: float = 0.7
-    """The learning rate falls linearly from its initial value to ``lr_decay`` times it at the last
-    epoch (our reading of the thesis's "linear LR decay 0.7", docs/kernel.md)."""
-    batch_size: int = 200
-    epochs: int = 30
-    """Maximum number of epochs."""
-    patience: int = 5
-    """Stop after this many epochs without a new best validation loss."""
-    validation_fraction: float = 0.2
-    """Fraction of targets held out for validation."""
-    max_train_targets: int | None = None
-    """Use only this many of the training targets (the data-size study); the validation set does not
-    change with it."""
-    seed: int = 0
-    """Seeds the initialisation, dropout, the batch order and the training-target subsample."""
-    split_seed: int = 0
-    """Seeds the train/validation split (kept fixed across seeds so studies share one validation set)."""
-    threads: int | None = None
-    """PyTorch CPU threads (default: PyTorch's choice)."""
-
-    def __post_init__(self) -> None:
-        check_variant(self.variant)
-        if not self.learning_rate > 0:
-            raise ValueError(f"learning_rate must be > 0, got {self.learning_rate}")
-        if not 0 < self.lr_decay <= 1:
-            raise ValueError(f"lr_decay must be in (0, 1], got {self.lr_decay}")
-        if self.batch_size < 1 or self.epochs < 1 or self.patience < 1:
-            raise ValueError("batch_size, epochs and patience must be >= 1")
-        if self.max_train_targets is not None and self.max_train_targets < 1:
-            raise ValueError(f"max_train_targets must be >= 1, got {self.max_train_targets}")
-
-    def to_json(self) -> dict[str, Any]:
-        return asdict(self)
-
-    @classmethod
-    def from_json(cls, data: dict[str, Any]) -> TrainConfig:
-        network = NetworkConfig(**{**data["network"], "hidden": tuple(data["network"]["hidden"])})
-        return cls(**{**data, "network": network})
 
 
 @dataclass
@@ -160,40 +111,6 @@ def prepare_data(dataset, config: TrainConfig) -> dict[str, np.ndarray]:
     }
 
 
-def _build_network(config: TrainConfig, n_in: int, n_out: int):
-    import torch.nn as nn
-
-    layers: list[nn.Module] = []
-    width = n_in
-    for hidden in config.network.hidden:
-        layers.append(nn.Linear(width, hidden))
-        if config.network.batch_norm:
-            layers.append(nn.BatchNorm1d(hidden))
-        layers.append(nn.ReLU() if config.network.activation == "relu" else nn.Tanh())
-        if config.network.dropout > 0:
-            layers.append(nn.Dropout(config.network.dropout))
-        width = hidden
-    layers.append(nn.Linear(width, n_out))
-    return nn.Sequential(*layers)
-
-
-def _export_weights(net, config: TrainConfig) -> list[np.ndarray]:
-    import torch.nn as nn
-
-    weights: list[np.ndarray] = []
-    for module in net:
-        if isinstance(module, nn.Linear):
-            weights += [module.weight.detach().numpy().copy(), module.bias.detach().numpy().copy()]
-        elif isinstance(module, nn.BatchNorm1d):
-            weights += [
-                module.weight.detach().numpy().copy(),
-                module.bias.detach().numpy().copy(),
-                module.running_mean.numpy().copy(),
-                module.running_var.numpy().copy(),
-            ]
-    return weights
-
-
 def run_hash(config: TrainConfig, dataset_hash: str) -> str:
     """Identity of a training run: its settings and its data (stored in ``config.json``)."""
     text = json.dumps({"config": config.to_json(), "dataset": dataset_hash}, sort_keys=True)
@@ -241,9 +158,9 @@ def train_kernel(
 
     if config.threads:
         torch.set_num_threads(config.threads)
-    scaling = _Scaling.fit(data["x_train"], data["y_train"])
-    tensors = _standardise(data, scaling)
-    learner = _build_learner(config, tensors.x_train.shape[1], tensors.y_train.shape[1])
+    scaling = Scaling.fit(data["x_train"], data["y_train"])
+    tensors = standardise(data, scaling)
+    learner = build_learner(config, tensors.x_train.shape[1], tensors.y_train.shape[1])
     checkpoint_path = out / CHECKPOINT_NAME
     state = _resume(checkpoint_path, this_run, learner) if checkpoint_path.exists() else _fresh_state()
 
@@ -282,81 +199,6 @@ def _start_run_folder(out: Path, this_run: str, config: TrainConfig, dataset_has
         )
 
 
-@dataclass(frozen=True)
-class _Scaling:
-    """Standardisation fitted on the training set, stored in the kernel: per input, shape (n_in,), and per
-    output, shape (n_out,), in the features' and labels' own units."""
-
-    input_mean: np.ndarray
-    input_std: np.ndarray
-    output_mean: np.ndarray
-    output_std: np.ndarray
-
-    @classmethod
-    def fit(cls, x: np.ndarray, y: np.ndarray) -> _Scaling:
-        """From training features ``x`` (rows, n_in) and labels ``y`` (rows, n_out)."""
-        input_mean, input_std = x.mean(0), x.std(0)
-        input_std = np.where(input_std < MIN_STD, 1.0, input_std)  # constant inputs (e.g. fixed heights)
-        output_mean, output_std = y.mean(0), y.std(0)
-        output_std = np.where(output_std < MIN_STD, 1.0, output_std)
-        return cls(input_mean, input_std, output_mean, output_std)
-
-
-@dataclass(frozen=True)
-class _Tensors:
-    """The standardised training and validation sets as float32 tensors: ``x_*`` (rows, n_in), ``y_*``
-    (rows, n_out); ``scale`` (n_out,) turns a standardised output error back into metres."""
-
-    x_train: Any
-    y_train: Any
-    x_val: Any
-    y_val: Any
-    scale: Any
-
-
-def _standardise(data: dict[str, np.ndarray], scaling: _Scaling) -> _Tensors:
-    """:func:`prepare_data`'s sets, standardised with ``scaling``."""
-    import torch
-
-    def standard(values: np.ndarray, mean: np.ndarray, std: np.ndarray):
-        return torch.from_numpy(((values - mean) / std).astype(np.float32))
-
-    x_mean, x_std = scaling.input_mean, scaling.input_std
-    y_mean, y_std = scaling.output_mean, scaling.output_std
-    return _Tensors(
-        x_train=standard(data["x_train"], x_mean, x_std),
-        y_train=standard(data["y_train"], y_mean, y_std),
-        x_val=standard(data["x_val"], x_mean, x_std),
-        y_val=standard(data["y_val"], y_mean, y_std),
-        scale=torch.from_numpy(scaling.output_std.astype(np.float32)),
-    )
-
-
-@dataclass(frozen=True)
-class _Learner:
-    """The network and everything that moves it: Adam, the learning-rate schedule, the batch-order RNG."""
-
-    net: Any
-    optimizer: Any
-    scheduler: Any
-    generator: Any
-
-
-def _build_learner(config: TrainConfig, n_in: int, n_out: int) -> _Learner:
-    """A freshly initialised network (seeded by ``config.seed``) with its optimiser and schedule."""
-    import torch
-
-    torch.manual_seed(config.seed)
-    net = _build_network(config, n_in, n_out)
-    optimizer = torch.optim.Adam(net.parameters(), lr=config.learning_rate)
-    last = max(1, config.epochs - 1)
-    scheduler = torch.optim.lr_scheduler.LambdaLR(
-        optimizer, lambda epoch: 1.0 - (1.0 - config.lr_decay) * min(epoch, last) / last
-    )
-    generator = torch.Generator().manual_seed(config.seed)
-    return _Learner(net, optimizer, scheduler, generator)
-
-
 def _fresh_state() -> dict[str, Any]:
     """The loop state before the first epoch (saved in every checkpoint)."""
     return {
@@ -370,8 +212,8 @@ def _fresh_state() -> dict[str, Any]:
 
 
 def _run_epochs(
-    learner: _Learner,
-    tensors: _Tensors,
+    learner: Learner,
+    tensors: Tensors,
     config: TrainConfig,
     state: dict[str, Any],
     this_run: str,
@@ -388,9 +230,9 @@ def _run_epochs(
         task = bar.add_task(f"kernel-{config.variant}", total=config.epochs, completed=state["epoch"])
         while state["epoch"] < config.epochs and state["epoch"] - state["best_epoch"] <= config.patience:
             started = time.perf_counter()
-            train_loss = _train_epoch(learner, tensors, config.batch_size)
+            train_loss = train_epoch(learner, tensors, config.batch_size)
             learner.scheduler.step()
-            val_l1 = _validate(learner.net, tensors)
+            val_l1 = validate(learner.net, tensors)
             epoch = state["epoch"]
             if not np.isfinite(val_l1):
                 raise ValueError(
@@ -407,40 +249,7 @@ def _run_epochs(
                 on_epoch(epoch, val_l1)
 
 
-def _train_epoch(learner: _Learner, tensors: _Tensors, batch_size: int) -> float:
-    """One pass over the training set in a random order; the mean of the batches' standardised L1 losses."""
-    import torch
-
-    net, x, y = learner.net, tensors.x_train, tensors.y_train
-    net.train()
-    order = torch.randperm(len(x), generator=learner.generator)
-    batches = (len(x) + batch_size - 1) // batch_size
-    total = 0.0
-    for b in range(batches):
-        index = order[b * batch_size : (b + 1) * batch_size]
-        loss = (net(x[index]) - y[index]).abs().mean()
-        learner.optimizer.zero_grad()
-        loss.backward()
-        learner.optimizer.step()
-        total += float(loss.detach())
-    return total / batches
-
-
-def _validate(net, tensors: _Tensors) -> float:
-    """Mean absolute error over all outputs of the validation set [m]."""
-    import torch
-
-    x, y = tensors.x_val, tensors.y_val
-    net.eval()
-    with torch.no_grad():
-        total = 0.0
-        for start in range(0, len(x), VALIDATION_BATCH):
-            prediction = net(x[start : start + VALIDATION_BATCH])
-            total += float(((prediction - y[start : start + VALIDATION_BATCH]).abs() * tensors.scale).sum())
-    return total / (len(x) * y.shape[1])
-
-
-def _record_epoch(state: dict[str, Any], learner: _Learner, train_loss: float, val_l1: float) -> None:
+def _record_epoch(state: dict[str, Any], learner: Learner, train_loss: float, val_l1: float) -> None:
     """Append the epoch that just ran to ``state``'s history, keep the network if it is the best, move on."""
     epoch = state["epoch"]
     state["history"].append(
@@ -461,7 +270,7 @@ def _log_epoch(writer, entry: dict[str, float]) -> None:
     writer.flush()
 
 
-def _save_checkpoint(path: Path, this_run: str, learner: _Learner, state: dict[str, Any]) -> None:
+def _save_checkpoint(path: Path, this_run: str, learner: Learner, state: dict[str, Any]) -> None:
     """Everything an interrupted run needs to resume exactly (:func:`_resume`), written atomically."""
     import torch
 
@@ -483,7 +292,7 @@ def _export(
     net,
     state: dict[str, Any],
     config: TrainConfig,
-    scaling: _Scaling,
+    scaling: Scaling,
     dataset,
     dataset_hash: str,
     data: dict[str, np.ndarray],
@@ -496,7 +305,7 @@ def _export(
     kernel = Kernel(
         variant=config.variant,
         network=config.network,
-        weights=_export_weights(net, config),
+        weights=export_weights(net),
         input_mean=scaling.input_mean.astype(np.float64),
         input_std=scaling.input_std.astype(np.float64),
         output_mean=scaling.output_mean.astype(np.float64),
@@ -528,7 +337,7 @@ def _export(
     )
 
 
-def _resume(checkpoint_path: Path, this_run: str, learner: _Learner) -> dict[str, Any]:
+def _resume(checkpoint_path: Path, this_run: str, learner: Learner) -> dict[str, Any]:
     """Restore the network, optimiser, schedule and random states from a checkpoint; return the loop state.
 
     Raises ValueError with one line naming the file when it is not a checkpoint of this run (torch's own
