@@ -9,6 +9,7 @@ from dataclasses import replace
 
 import pytest
 
+from krl.agent import run_folder
 from krl.agent import train as training
 from krl.agent.policy import load_policy
 from krl.agent.train import TrainingError, train, training_device
@@ -32,7 +33,7 @@ def test_cuda_where_there_is_none_and_unknown_devices_are_one_line_errors(monkey
 
 
 def test_a_run_takes_one_worker_per_usable_core_and_records_it(tmp_path, small_config, monkeypatch):
-    monkeypatch.setattr(training, "usable_cores", lambda: 1)
+    monkeypatch.setattr(run_folder, "usable_cores", lambda: 1)
     monkeypatch.setattr(training.torch.cuda, "is_available", lambda: False)
     out = tmp_path / "run"
     train(

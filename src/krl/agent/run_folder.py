@@ -1,0 +1,238 @@
+"""An agent's run folder (:func:`krl.agent.train.train`): opening one, new or resumed, and what it holds.
+
+A new run writes ``run.json`` (seed, kernel file and its SHA-256, workers, device, software versions) and
+``config.json`` (the resolved :class:`krl.agent.config.AgentConfig`) before anything trains; a resumed one
+is read back and refused, with one line and before anything is written, when it was started with another
+config, seed or run to start from, or when its kernel file is gone. The checkpoints themselves are
+:mod:`krl.agent.checkpoint`'s.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from krl.agent.checkpoint import Checkpoint, CheckpointError, read_checkpoint
+from krl.agent.config import AgentConfig, AgentConfigError
+from krl.agent.curves import STEPS_COLUMN
+from krl.util.hashing import file_sha256
+from krl.util.output import write_atomic
+from krl.util.parallel import usable_cores
+
+
+class TrainingError(RuntimeError):
+    """A run folder that cannot be used (another config, a corrupt checkpoint); one line."""
+
+
+def software() -> dict[str, str]:
+    """The versions of krl and of the libraries a run's results depend on."""
+    import mujoco
+    import stable_baselines3
+    import torch
+
+    from krl import __version__
+
+    return {
+        "krl": __version__,
+        "stable_baselines3": stable_baselines3.__version__,
+        "torch": torch.__version__,
+        "mujoco": mujoco.__version__,
+    }
+
+
+def open_run(
+    out: Path,
+    config: AgentConfig | None,
+    seed: int | None,
+    init_from: str | Path | None,
+    workers: int | None,
+    num_envs: int | None,
+    device: str,
+) -> tuple[AgentConfig, dict[str, Any]]:
+    """The run's config and run record: read (a resumption, :func:`_reopen_run`) or written (a new run,
+    :func:`_new_run`, on ``device``), with the ``workers`` and ``num_envs`` given."""
+    overrides = {
+        name: value for name, value in (("workers", workers), ("num_envs", num_envs)) if value is not None
+    }
+    source = None if init_from is None else Path(init_from)
+    if (out / "config.json").is_file():
+        return _reopen_run(out, config, seed, source, overrides)
+    config = replace(config or AgentConfig(), **overrides)
+    if config.workers is None:
+        config = replace(config, workers=usable_cores())
+    return config, _new_run(out, config, seed, source, device)
+
+
+def _reopen_run(
+    out: Path, config: AgentConfig | None, seed: int | None, init_from: Path | None, overrides: dict[str, int]
+) -> tuple[AgentConfig, dict[str, Any]]:
+    """A resumed run's stored config (with the worker count asked for) and run record; refuses a
+    resumption asked with another config (``workers`` aside: it only spreads the env steps over
+    processes), another seed or another run to start from."""
+    try:
+        stored, run = _read_run(out)
+    except (OSError, ValueError, AgentConfigError) as error:
+        raise TrainingError(f"run {out} cannot be resumed: {error}") from None
+    asked = replace(config or stored, **overrides)
+    difference = _difference(stored, replace(asked, workers=stored.workers))
+    if difference is not None:
+        raise TrainingError(
+            f"run {out} was started with another config (its {difference}); use a new --out, or drop "
+            "--config and --num-envs to resume it"
+        )
+    if seed is not None and seed != run["seed"]:
+        raise TrainingError(f"run {out} was started with seed {run['seed']}, not {seed}")
+    started_from = run.get("initialized_from", {}).get("run")
+    if init_from is not None and (
+        started_from is None or Path(started_from).resolve() != init_from.resolve()
+    ):
+        raise TrainingError(f"run {out} was not started from {init_from}; drop --init-from to resume it")
+    return replace(stored, workers=asked.workers), run
+
+
+def _difference(stored: AgentConfig, asked: AgentConfig) -> str | None:
+    """The first setting in which ``asked`` differs from ``stored``, as ``section.name is X, not Y``."""
+    theirs, mine = stored.to_json(), asked.to_json()
+    for section, value in theirs.items():
+        pairs = (
+            [(f"{section}.{name}", item, mine[section][name]) for name, item in value.items()]
+            if isinstance(value, dict)
+            else [(section, value, mine[section])]
+        )
+        for name, their_value, my_value in pairs:
+            if their_value != my_value:
+                return f"{name} is {their_value!r}, not {my_value!r}"
+    return None
+
+
+def _new_run(
+    out: Path, config: AgentConfig, seed: int | None, init_from: Path | None, device: str
+) -> dict[str, Any]:
+    """Check the kernel (and the run to start from), then write the new run's ``run.json`` (with the
+    workers and the device it starts on) and ``config.json``; returns the run record."""
+    from krl.kernel.model import load_kernel
+    from krl.kernel.registry import resolve_model
+
+    kernel_path = resolve_model(config.residual.kernel)
+    if not kernel_path.is_file():
+        raise TrainingError(f"kernel file {kernel_path} not found")
+    load_kernel(kernel_path)  # a one-line KernelFileError before anything is written
+    run = {
+        "seed": 0 if seed is None else seed,
+        "kernel_path": str(kernel_path.resolve()),
+        "kernel_sha256": file_sha256(kernel_path),
+        "workers": config.workers,
+        "device": device,
+        "software": software(),
+    }
+    if init_from is not None:
+        run["initialized_from"] = _initial_run(init_from, config, run["kernel_sha256"])
+    out.mkdir(parents=True, exist_ok=True)
+    write_atomic(out / "run.json", (json.dumps(run, indent=2) + "\n").encode())
+    write_atomic(out / "config.json", (json.dumps(config.to_json(), indent=2) + "\n").encode())
+    return run
+
+
+def _read_run(folder: Path) -> tuple[AgentConfig, dict[str, Any]]:
+    """A run folder's config and run record; ``OSError``, ``ValueError`` or ``AgentConfigError`` if either
+    cannot be read."""
+    config_path = folder / "config.json"
+    config = AgentConfig.from_json(json.loads(config_path.read_text()), str(config_path))
+    return config, json.loads((folder / "run.json").read_text())
+
+
+def latest_checkpoint(out: Path) -> Path | None:
+    latest = out / "checkpoints" / "latest"
+    if not latest.is_file():
+        return None
+    path = out / "checkpoints" / latest.read_text().strip()
+    if not (path / "state.json").is_file():
+        raise TrainingError(f"run {out}: checkpoint {path.name} named by checkpoints/latest is incomplete")
+    return path
+
+
+def read_checked(reader, checkpoint: Path):
+    """``reader(checkpoint)`` (:func:`read_state`, :func:`read_checkpoint`) with its error as a
+    TrainingError."""
+    try:
+        return reader(checkpoint)
+    except CheckpointError as error:
+        raise TrainingError(str(error)) from None
+
+
+def _initial_run(source: Path, config: AgentConfig, kernel_sha256: str) -> dict[str, Any]:
+    """What a run started from ``source`` records of it; refuses a source the new run cannot start from
+    (its whole checkpoint is read here, before the new run writes anything)."""
+    latest = latest_checkpoint(source)
+    if latest is None or not (source / "config.json").is_file():
+        raise TrainingError(f"--init-from {source}: not a run folder of krl agent train with a checkpoint")
+    try:
+        theirs, their_run = _read_run(source)
+    except (OSError, ValueError, AgentConfigError) as error:
+        raise TrainingError(f"--init-from {source}: {error}") from None
+    network = ("shared", "actor", "critic", "log_std_init", "normalize_observations")
+    for name, mine, other in (
+        ("residual", config.residual, theirs.residual),
+        ("observation", config.observation, theirs.observation),
+        *((f"ppo.{key}", getattr(config.ppo, key), getattr(theirs.ppo, key)) for key in network),
+    ):
+        if mine != other:
+            raise TrainingError(f"--init-from {source}: its {name} is {other!r}, this run's is {mine!r}")
+    if their_run.get("kernel_sha256") != kernel_sha256:
+        raise TrainingError(f"--init-from {source}: it was trained with another kernel file")
+    checkpoint = read_checked(read_checkpoint, latest)
+    return {
+        "run": str(source),
+        "checkpoint": latest.name,
+        "env_steps": checkpoint.num_timesteps,
+        "wall_seconds": checkpoint.wall_seconds,
+        "seed": their_run.get("seed"),
+    }
+
+
+def starting_point(run: dict[str, Any], latest: Path | None) -> Checkpoint | None:
+    """The checkpoint training continues from: the run's newest, else the one of the run it starts from
+    (``initialized_from``), else None (a new run from scratch)."""
+    if latest is not None:
+        return read_checked(read_checkpoint, latest)
+    start = run.get("initialized_from")
+    if start is None:
+        return None
+    checkpoint = Path(start["run"]) / "checkpoints" / start["checkpoint"]
+    if not checkpoint.is_dir():
+        raise TrainingError(f"checkpoint {checkpoint} that this run starts from is gone (trained on since?)")
+    return read_checked(read_checkpoint, checkpoint)
+
+
+def run_kernel(out: Path, config: AgentConfig, run: dict[str, Any]) -> str:
+    """The run's kernel file: the one it recorded, or (a run folder moved to another machine) the one its
+    config names, provided it has the recorded SHA-256."""
+    from krl.kernel.registry import resolve_model
+
+    for candidate in (Path(run["kernel_path"]), resolve_model(config.residual.kernel)):
+        if candidate.is_file() and file_sha256(candidate) == run["kernel_sha256"]:
+            return str(candidate)
+    raise TrainingError(
+        f"run {out} was trained with the kernel of SHA-256 {run['kernel_sha256'][:12]}…, which is neither "
+        f"{run['kernel_path']} nor {config.residual.kernel!r} here"
+    )
+
+
+def archive_log(out: Path, steps: int) -> None:
+    """Before a resumption from the checkpoint at ``steps``, set ``progress.csv`` aside as
+    ``progress.<steps>.csv`` (SB3's CSV logger starts its file afresh) without its rows past ``steps``,
+    which are trained again. A log with no row left (a second resumption from one checkpoint) is dropped,
+    keeping the archive the first one made."""
+    log = out / "progress.csv"
+    if not log.is_file():
+        return
+    lines = log.read_text().splitlines(keepends=True)
+    if lines:
+        column = next(csv.reader(lines[:1])).index(STEPS_COLUMN)
+        kept = [line for line in lines[1:] if float(next(csv.reader([line]))[column]) <= steps]
+        if kept:
+            write_atomic(out / f"progress.{steps:011d}.csv", "".join([lines[0], *kept]))
+    log.unlink()
