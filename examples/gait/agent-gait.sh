@@ -71,10 +71,9 @@ for baseline in agent-rp expert-stance0.2 kernel-base; do
     mkdir -p "$EVAL" && cp -r "evaluations/four-seeds/$baseline" "$EVAL/$baseline"
   fi
 done
+# the chosen variant's files are two of agent-gait's: krl evaluate runs them once, for both labels
 controllers="--controller agent:$GAIT"
-for variant in "${VARIANTS[@]}"; do
-  [ "$variant" = "$chosen" ] || controllers+=" --controller 'agent:$TRIALS/$variant-seed*'"
-done
+for variant in "${VARIANTS[@]}"; do controllers+=" --controller 'agent:$TRIALS/$variant-seed*'"; done
 controllers+=" --controller agent --controller expert --controller kernel"
 together "krl evaluate $controllers --course thesis --course harder --push-sweep --attempts 50 \
 --friction-sweep --out $EVAL --quiet"

@@ -1,5 +1,5 @@
 """examples/gait/agent-gait.sh, run against a stand-in ``krl`` that logs its arguments: the steps in order,
-the chosen variant's seeds and recipe, the evaluation without the chosen variant twice, and one SIGTERM
+the chosen variant's seeds and recipe, one evaluation of every variant and agent-gait, and one SIGTERM
 reaching the running command."""
 
 from __future__ import annotations
@@ -64,8 +64,8 @@ def test_the_pipeline_runs_its_steps_in_order_with_the_chosen_recipe(workspace):
     assert all("--config runs/heldout-gait/chosen-config.json" in line for line in trains)
     assert "--seed-group runs/agent-gait " in lines[1]  # the chosen variant's runs: agent-gait's seeds
     evaluate = lines[4]
-    assert "--controller agent:runs/agent-gait " in evaluate and "rhythm-seed*" not in evaluate
-    assert evaluate.count("-seed*") == 4 and "--attempts 50 --friction-sweep" in evaluate
+    assert "--controller agent:runs/agent-gait " in evaluate and "rhythm-seed*" in evaluate
+    assert evaluate.count("-seed*") == 5 and "--attempts 50 --friction-sweep" in evaluate
 
 
 def test_one_sigterm_reaches_the_running_command_and_stops_the_pipeline(workspace):

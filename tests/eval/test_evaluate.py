@@ -36,13 +36,13 @@ def test_runs_are_stored_and_not_redone(tmp_path, tiny):
     tasks = evaluate.course_tasks(spec, [load_course(tiny)], seeds=[150, 215])
     assert [t.key for t in tasks] == ["tiny/start0", "tiny/start1"]  # the kernel does not depend on a seed
     seen = []
-    records = evaluate.execute(tasks, tmp_path / "out", on_done=lambda task, record, ran: seen.append(ran))
-    assert seen == [True, True]
+    records = evaluate.execute(tasks, tmp_path / "out", on_done=lambda task, record, how: seen.append(how))
+    assert seen == ["ran", "ran"]
     assert (tmp_path / "out" / "kernel-base" / "tiny" / "start1.json").exists()
     assert records[0]["metrics"]["steps"] == 50 and records[0]["metrics"]["timed_out"] is True
     seen.clear()
-    again = evaluate.execute(tasks, tmp_path / "out", on_done=lambda task, record, ran: seen.append(ran))
-    assert seen == [False, False] and again == records
+    again = evaluate.execute(tasks, tmp_path / "out", on_done=lambda task, record, how: seen.append(how))
+    assert seen == ["stored", "stored"] and again == records
 
 
 def test_two_controllers_keep_their_own_records(tmp_path, tiny):

@@ -185,6 +185,46 @@ def test_a_group_that_gains_a_seed_keeps_the_records_of_the_others(tmp_path, tin
     assert record.read_bytes() == first
 
 
+def test_a_policy_file_in_two_groups_runs_once_and_each_group_keeps_its_record(tmp_path, tiny, capsys):
+    """A variant's two seeds that are also two of a seed group's four (agent-gait, the chosen variant)."""
+    variant = per_seed_folder(tmp_path / "variant", [150, 215])
+    group = tmp_path / "group"
+    for seed in (150, 215):
+        copy_of(variant / f"policy-seed{seed}.npz", group / f"seed{seed}.npz")
+    make_policy(AgentConfig(), seed=345).save(group / "seed345.npz")
+    out = tmp_path / "out"
+    controllers = ["--controller", f"agent:{variant}", "--controller", f"agent:{group}"]
+    assert main(evaluate_argv(out, *controllers, "--course", str(tiny))) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert (summary["runs"], summary["ran"], summary["stored"], summary["shared"]) == (5, 3, 0, 2)
+    labels = sorted(summary["controllers"])
+    assert labels == sorted(parse_controller(f"agent:{folder}").label for folder in (variant, group))
+    for seed in (150, 215):
+        a, b = (json.loads((out / label / f"tiny/start0-seed{seed}.json").read_text()) for label in labels)
+        assert a["controller"]["label"] != b["controller"]["label"]
+        assert {**a, "controller": None} == {**b, "controller": None}
+    # alone, the group computes the same records as the copies it was given
+    assert (
+        main(evaluate_argv(tmp_path / "alone", "--controller", f"agent:{group}", "--course", str(tiny))) == 0
+    )
+    group_label = parse_controller(f"agent:{group}").label
+    for seed in (150, 215):
+        copied, alone = (
+            json.loads((folder / group_label / f"tiny/start0-seed{seed}.json").read_text())
+            for folder in (out, tmp_path / "alone")
+        )
+        copied["metrics"].pop("wall_seconds"), alone["metrics"].pop("wall_seconds")
+        assert copied == alone
+    # a group added later copies the stored records of the files it shares instead of running them again
+    capsys.readouterr()
+    later = tmp_path / "later"
+    assert main(evaluate_argv(later, "--controller", f"agent:{variant}", "--course", str(tiny))) == 0
+    capsys.readouterr()
+    assert main(evaluate_argv(later, *controllers, "--course", str(tiny))) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert (summary["ran"], summary["stored"], summary["shared"]) == (1, 2, 2)
+
+
 def test_records_that_named_the_whole_group_are_kept_while_its_files_are_unchanged(tmp_path, tiny, capsys):
     group = per_seed_folder(tmp_path / "agent-mine", [150, 215])
     out = tmp_path / "out"

@@ -171,12 +171,12 @@ def run_evaluate(args: argparse.Namespace) -> int:
         for spec in specs:
             _remember_command(out / spec.label / "commands.txt", command)
 
-    counts = {"ran": 0, "stored": 0}
+    counts = dict.fromkeys(evaluate.HOW_DONE, 0)
     with progress_bar(not args.quiet, unit="runs", status=True) as bar:
         task_id = bar.add_task("evaluate", total=len(tasks), status="")
 
-        def on_done(task, record, ran: bool) -> None:
-            counts["ran" if ran else "stored"] += 1
+        def on_done(task, record, how: str) -> None:
+            counts[how] += 1
             metrics = record["metrics"]
             status = f"{task.controller.label} {task.key}: {metrics['targets_reached']}/{metrics['targets']}"
             bar.update(task_id, advance=1, status=status + (" fell" if metrics["fell"] else ""))
@@ -184,7 +184,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
         try:
             records = evaluate.execute(tasks, out, args.workers, on_done, remember_command)
         except KeyboardInterrupt as stop:
-            done = counts["ran"] + counts["stored"]
+            done = sum(counts.values())
             print(
                 f"krl: interrupted after {done} of {len(tasks)} runs; re-run the command to finish",
                 file=sys.stderr,

@@ -39,6 +39,11 @@ FRICTION_DIR = "friction"
 """Subdirectory of a controller's results that holds the friction sweep."""
 
 
+HOW_DONE = ("ran", "stored", "shared")
+"""How a task's record became available: its run ran in this call; it was stored already; or it is the
+record of the same run under another label (:func:`run_identity`), made in this call or stored."""
+
+
 class EvaluationError(RuntimeError):
     """Stored results that cannot be used (corrupt, or made by something else); one line."""
 
@@ -238,11 +243,21 @@ def _differences(a: dict[str, Any], b: dict[str, Any]) -> str:
     return " and ".join(dict.fromkeys(_IDENTITY_NAMES.get(key, key) for key in keys))
 
 
+def run_identity(task: Task) -> str:
+    """What a run computes: its identity (:meth:`Task.identity`) but for the label its controller is listed
+    under, with its run key and video. Two tasks of one identity compute the same record (every run is
+    seeded by its key), so a file listed under two labels, a seed group's file that another group or a
+    variant also holds, say, runs once."""
+    identity = task.identity()
+    identity["controller"] = {k: v for k, v in identity["controller"].items() if k != "label"}
+    return json.dumps([identity, task.key, task.video], sort_keys=True)
+
+
 def execute(
     tasks: Sequence[Task],
     out: Path,
     workers: int = 1,
-    on_done: Callable[[Task, dict[str, Any], bool], None] | None = None,
+    on_done: Callable[[Task, dict[str, Any], str], None] | None = None,
     on_start: Callable[[], None] | None = None,
 ) -> list[dict[str, Any]]:
     """Run the tasks whose results are not stored yet; return every task's record, in task order.
@@ -250,9 +265,11 @@ def execute(
     Everything is checked before anything is written: the worker count; that no two different runs
     would share a result file (same controller label and run key, different identity: an
     :class:`EvaluationError`; equal tasks run once); and that every stored result was made by its task.
-    Then ``on_start()`` is called (the CLI records its command there), and ``on_done(task, record, ran)``
-    for each task as its record becomes available (``ran``: False for a stored result). The runs go
-    through :func:`krl.util.parallel.run_jobs`: Ctrl-C or SIGTERM stops the workers and raises
+    Tasks that compute the same record under different labels (:func:`run_identity`) run once: each gets
+    the record under its own label, copied from a stored one where there is one. Then ``on_start()`` is
+    called (the CLI records its command there), and ``on_done(task, record, how)`` for each task as its
+    record becomes available, ``how`` one of :data:`HOW_DONE`. The runs go through
+    :func:`krl.util.parallel.run_jobs`: Ctrl-C or SIGTERM stops the workers and raises
     :class:`krl.util.parallel.Interrupted` (a ``KeyboardInterrupt``); only the runs in flight are lost, every
     record passed to ``on_done`` is stored.
     """
@@ -268,24 +285,41 @@ def execute(
                 f"{_differences(other.identity(), task.identity())}); give them different names"
             )
     records: dict[Path, dict[str, Any]] = {}
-    pending = []
+    stored: dict[str, dict[str, Any]] = {}
+    missing: list[Task] = []
     for path, task in planned.items():
         if path.exists() and not (task.video and not Path(task.video).exists()):
-            records[path] = load_record(path, task)
+            records[path] = stored[run_identity(task)] = load_record(path, task)
         else:
-            pending.append(task)
+            missing.append(task)
+    served: dict[str, list[Task]] = {}  # the tasks each run to make serves, by run identity
+    copied: list[Task] = []
+    for task in missing:
+        if run_identity(task) in stored:
+            copied.append(task)
+        else:
+            served.setdefault(run_identity(task), []).append(task)
+    pending = [same[0] for same in served.values()]
     if on_start is not None:
         on_start()
+
+    def store(task: Task, record: dict[str, Any], how: str) -> None:
+        mine = {**record, **task.identity()}  # under the task's own label
+        path = result_path(out, task)
+        write_atomic(path, json.dumps(mine, indent=1))
+        records[path] = mine
+        if on_done is not None:
+            on_done(task, mine, how)
+
     if on_done is not None:
-        for path, record in records.items():
-            on_done(planned[path], record, False)
+        for path, record in list(records.items()):
+            on_done(planned[path], record, "stored")
+    for task in copied:
+        store(task, stored[run_identity(task)], "shared")
 
     def finish(index: int, record: dict[str, Any]) -> None:
-        path = result_path(out, pending[index])
-        write_atomic(path, json.dumps(record, indent=1))
-        records[path] = record
-        if on_done is not None:
-            on_done(pending[index], record, True)
+        for task in served[run_identity(pending[index])]:
+            store(task, record, "ran" if task is pending[index] else "shared")
 
     run_jobs(run_task, pending, workers, on_result=finish)
     return [records[result_path(out, task)] for task in tasks]

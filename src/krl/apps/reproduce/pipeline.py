@@ -334,8 +334,8 @@ def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
             "evaluate-gait",
             "agent-gait's tables' runs",
             # about 35 min per agent seed (push sweep, friction sweep, harder courses), 15 per expert, kernel;
-            # the chosen variant's runs are scored twice, as the variant and as agent-gait's seeds
-            ByMode(35 * (2 * len(seeds) + len(variants) * len(ablation)) + 30, 5),
+            # agent-gait's ablation seeds are the chosen variant's files, whose runs krl evaluate makes once
+            ByMode(35 * (len(more) + len(seeds) + len(variants) * len(ablation)) + 30, 5),
             (
                 "evaluate --controller agent:{runs}/agent-gait",
                 " ".join(f"--controller agent:{_TRIALS}/{name}-seed*" for name in variants),
