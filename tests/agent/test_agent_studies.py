@@ -199,6 +199,26 @@ def test_an_interrupted_trial_is_queued_again_not_lost(tmp_path, monkeypatch):
     assert sorted(made) == [("fast-seed1", 1), ("slow-seed1", 1)]
 
 
+@pytest.mark.parametrize("moment", ["is_surplus", "krl.agent.train.train"])
+def test_a_trial_interrupted_before_or_in_its_training_is_queued_again(tmp_path, monkeypatch, moment):
+    """Ctrl-C or SIGTERM while the popped trial is still being set up (checked against the others, the
+    training's imports) loses its entry no more than one inside the training."""
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    target = moment if "." in moment else f"krl.agent.studies.runner.{moment}"
+    with monkeypatch.context() as patch:
+        patch.setattr(target, interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            work(LIST_DESIGN, StudySettings.of(LIST_DESIGN, seeds=(1,)), tmp_path, sqlite(tmp_path))
+    made: list = []
+    monkeypatch.setattr("krl.agent.train.train", fake_train(made))
+    settings = StudySettings.of(LIST_DESIGN, seeds=(1,))
+    work(LIST_DESIGN, settings, tmp_path, sqlite(tmp_path), log=lambda _: None)
+    assert sorted(made) == [("fast-seed1", 1), ("slow-seed1", 1)]
+
+
 def test_a_search_draws_its_trials_then_confirms_the_best_from_every_seed(tmp_path, calls):
     settings = StudySettings.of(SEARCH_DESIGN, pruner="none")
     work(SEARCH_DESIGN, settings, tmp_path, sqlite(tmp_path), heartbeat=1, log=lambda _: None)

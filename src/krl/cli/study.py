@@ -51,18 +51,18 @@ def _work(
     name: str, settings, out: str, url: str, heartbeat: float, quiet: bool, parent: int | None = None
 ) -> None:
     """One study process: the parent's, or a job the parent (pid ``parent``) spawned, which leaves Ctrl-C
-    to the parent and dies with it; stopped, such a job leaves the report to the parent (no traceback)."""
+    to the parent and dies with it; SIGTERM, from the start, stops such a job as Ctrl-C stops the parent
+    (its trial is queued again), and it leaves the report to the parent (no traceback)."""
     from krl.agent.studies.designs import STUDIES
     from krl.agent.studies.runner import work
+    from krl.util.parallel import die_with_parent, signals_raise
 
     if parent is not None:
-        from krl.util.parallel import die_with_parent
-
         die_with_parent(parent)
-
     log = (lambda _: None) if quiet else print
     try:
-        work(STUDIES[name], settings, Path(out), url, heartbeat, log=log, progress=not quiet)
+        with signals_raise():  # the parent's are already so; a job's SIGTERM would otherwise kill it
+            work(STUDIES[name], settings, Path(out), url, heartbeat, log=log, progress=not quiet)
     except KeyboardInterrupt:
         if parent is None:
             raise

@@ -16,7 +16,9 @@ for many. Every process runs :func:`work` against it, and they share the trials:
   machine) stops beating, and any process of the study marks it failed after the grace period and
   enqueues it again (Optuna's ``RetryHeartbeatStaleTrialCallback``); processes with nothing left to start
   wait while other processes' trials run, so that they can take such a trial over. A retried trial
-  resumes from its run folder's last checkpoint when it runs on the machine that had it.
+  resumes from its run folder's last checkpoint when it runs on the machine that had it. A trial stopped
+  by Ctrl-C or SIGTERM (every study process turns SIGTERM into a ``KeyboardInterrupt``) is queued again
+  at once, whether it was training (checkpointed first) or still being set up.
 * **Finished is final.** A finished trial (complete, pruned or failed with an error) is never run again.
 
 A trial stores what the report needs in the storage itself (user attributes: the final targets reached
@@ -334,7 +336,32 @@ def run_trial(
 ) -> float:
     """Train one trial (Optuna objective; ``progress``: the training's progress bar) and return its final
     targets reached; raises :class:`SurplusTrial` for a trial that must not train, ``optuna.TrialPruned``
-    for a pruned one."""
+    for a pruned one. Ctrl-C or SIGTERM (a ``KeyboardInterrupt``) at any moment after the trial was popped
+    queues it again (a training checkpoints first), unless it was found surplus."""
+    try:
+        return _train_trial(trial, design, settings, stage, out, candidates, log, progress)
+    except KeyboardInterrupt:
+        if not trial.user_attrs.get("surplus"):
+            _requeue(trial, _stored(trial))  # stopped, not finished: the next process resumes it
+        raise
+
+
+def _stored(trial):
+    """The stored (frozen) trial of a running one: its system attributes."""
+    return next(t for t in trial.study.get_trials(deepcopy=False) if t.number == trial.number)
+
+
+def _train_trial(
+    trial,
+    design: StudyDesign,
+    settings: StudySettings,
+    stage: str,
+    out: Path,
+    candidates: dict[int, dict[str, Any]] | None,
+    log: Callable[[str], None],
+    progress: bool,
+) -> float:
+    """:func:`run_trial`'s work."""
     import optuna
 
     from krl.agent.train import train
@@ -372,9 +399,6 @@ def run_trial(
             callbacks=[report] if report is not None else [],
         )
         record = final_metrics(folder)
-    except KeyboardInterrupt:
-        _requeue(trial, me)  # stopped, not finished: the next process resumes it from its checkpoint
-        raise
     except Exception as error:  # a failed training fails its trial, not the study
         message = f"{type(error).__name__}: {error}"
         trial.set_user_attr("error", message)
