@@ -284,22 +284,17 @@ def execute(
                 f"{path} would hold two different runs of this call (they differ in "
                 f"{_differences(other.identity(), task.identity())}); give them different names"
             )
+    keys = {path: run_identity(task) for path, task in planned.items()}
     records: dict[Path, dict[str, Any]] = {}
-    stored: dict[str, dict[str, Any]] = {}
-    missing: list[Task] = []
+    stored: dict[str, dict[str, Any]] = {}  # a stored record of each run identity that has one
     for path, task in planned.items():
         if path.exists() and not (task.video and not Path(task.video).exists()):
-            records[path] = stored[run_identity(task)] = load_record(path, task)
-        else:
-            missing.append(task)
-    served: dict[str, list[Task]] = {}  # the tasks each run to make serves, by run identity
-    copied: list[Task] = []
-    for task in missing:
-        if run_identity(task) in stored:
-            copied.append(task)
-        else:
-            served.setdefault(run_identity(task), []).append(task)
-    pending = [same[0] for same in served.values()]
+            records[path] = stored[keys[path]] = load_record(path, task)
+    served: dict[str, list[Task]] = {}  # the tasks without a record, by run identity
+    for path, task in planned.items():
+        if path not in records:
+            served.setdefault(keys[path], []).append(task)
+    to_run = [key for key in served if key not in stored]
     if on_start is not None:
         on_start()
 
@@ -312,14 +307,17 @@ def execute(
             on_done(task, mine, how)
 
     if on_done is not None:
-        for path, record in list(records.items()):
+        for path, record in records.items():
             on_done(planned[path], record, "stored")
-    for task in copied:
-        store(task, stored[run_identity(task)], "shared")
+    for key, same in served.items():
+        for task in same if key in stored else ():
+            store(task, stored[key], "shared")
 
     def finish(index: int, record: dict[str, Any]) -> None:
-        for task in served[run_identity(pending[index])]:
-            store(task, record, "ran" if task is pending[index] else "shared")
+        first, *others = served[to_run[index]]
+        store(first, record, "ran")
+        for task in others:
+            store(task, record, "shared")
 
-    run_jobs(run_task, pending, workers, on_result=finish)
+    run_jobs(run_task, [served[key][0] for key in to_run], workers, on_result=finish)
     return [records[result_path(out, task)] for task in tasks]

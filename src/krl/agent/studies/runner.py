@@ -346,9 +346,11 @@ def run_trial(
         raise
 
 
-def _stored(trial):
-    """The stored (frozen) trial of a running one: its system attributes."""
-    return next(t for t in trial.study.get_trials(deepcopy=False) if t.number == trial.number)
+def _stored(trial, trials: Sequence[Any] | None = None):
+    """The stored (frozen) trial of a running one, its system attributes, from ``trials`` (default: the
+    study's now)."""
+    trials = trial.study.get_trials(deepcopy=False) if trials is None else trials
+    return next(t for t in trials if t.number == trial.number)
 
 
 def _train_trial(
@@ -367,7 +369,7 @@ def _train_trial(
     from krl.agent.train import train
 
     others = trial.study.get_trials(deepcopy=False)
-    me = next(t for t in others if t.number == trial.number)  # the stored trial: its system attributes
+    me = _stored(trial, others)
     if is_surplus(me, others, settings.trials if stage == SEARCH else None):
         trial.set_user_attr("surplus", True)
         raise SurplusTrial(f"trial {trial.number} has nothing left to train")
