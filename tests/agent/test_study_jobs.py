@@ -33,7 +33,10 @@ def test_sigterm_stops_every_job_and_queues_their_trials_again(tmp_path):
         workers = {
             t.user_attrs["worker"] for t in trials if t.state.name == "RUNNING" and "worker" in t.user_attrs
         }
-    assert len(workers) == 2, study.stderr.read() if study.poll() is not None else "no two running trials"
+    if len(workers) < 2:  # say why: what the study and its jobs printed
+        study.kill()
+        printed = study.communicate()[1]
+        raise AssertionError(f"running trials of {sorted(workers)} only; the study printed: {printed}")
     time.sleep(3)  # both inside their trainings
     study.send_signal(signal.SIGTERM)
     assert study.wait(timeout=180) != 0
