@@ -8,7 +8,7 @@ import multiprocessing
 
 import pytest
 
-PROCESSES, ROUNDS = 3, 4
+PROCESSES, ROUNDS = 3, 3
 
 
 def _open_at_once(url: str, barrier, results) -> None:
