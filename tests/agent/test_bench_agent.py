@@ -11,9 +11,11 @@ from krl.cli import main
 
 
 def test_bench_agent_runs_a_given_config(tmp_path, capsys):
+    config = AgentConfig(num_envs=3)
     gait = replace(
-        AgentConfig(num_envs=3),
+        config,
         residual=ResidualConfig(kernel="ext", drive_heights=True, drive_rhythm=True),
+        ppo=replace(config.ppo, batch_size=64, n_epochs=1),  # three rollouts of 64 steps, not of 4000
     )
     path = tmp_path / "gait.json"
     path.write_text(json.dumps(gait.to_json()))
