@@ -72,6 +72,7 @@ def test_names_and_defaults():
         "sinusoid",
         "slope",
         "stairs",
+        "pyramids",
         "tabletop",
         "seesaw",
     }
@@ -120,12 +121,14 @@ def test_terrain_geoms_contact_settings(name):
 # --- heights against MuJoCo -----------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name", [*HFIELD_TERRAINS, "flat", "stairs"])
+@pytest.mark.parametrize("name", [*HFIELD_TERRAINS, "flat", "stairs", "pyramids"])
 def test_height_matches_ray_cast(name):
     _, model, terrain = build(name, seed=215, robot=False)
     rng = np.random.default_rng(1)
     if name == "stairs":
         xy = rng.uniform([-1.0, -2.5], [7.0, 2.5], size=(300, 2))
+    elif name == "pyramids":  # dense: each pyramid has up to 4 treads of 25-33 cm
+        xy = np.concatenate([rng.uniform(-11.9, 11.9, size=(2000, 2)), rng.uniform(-1, 1, size=(50, 2))])
     else:
         xy = np.concatenate([rng.uniform(-11.5, 11.5, size=(300, 2)), rng.uniform(-1, 1, size=(50, 2))])
     np.testing.assert_allclose(terrain.height(xy[:, 0], xy[:, 1]), ray_heights(model, xy), atol=1e-3)
@@ -248,6 +251,37 @@ def test_stairs_layout():
     assert terrain.landmarks["first_riser"] == (1.0, 0.0)
 
 
+def test_pyramids_layout_and_draws():
+    _, _, terrain = build("pyramids", seed=150, robot=False)
+    p = terrain.params
+    assert terrain.spawn_xy == (0.0, 0.0) and terrain.height(0.0, 0.0) == 0.0
+    # Lanes: flat wherever a point is within lane / 2 of a tile border.
+    border = np.arange(-12.0, 12.01, p["tile"])
+    x, y = np.meshgrid(border + 0.29, np.linspace(-11.9, 11.9, 50))
+    np.testing.assert_array_equal(terrain.height(x, y), 0.0)
+    # Each tile: a riser in [4, 8] cm, 1-4 levels, the top at levels x riser at the tile's centre.
+    centres = np.arange(-10.5, 10.51, 3.0)
+    cx, cy = np.meshgrid(centres, centres)
+    tops = terrain.height(cx, cy)
+    risers = terrain.height(cx + 1.19, cy)  # on the lowest tread (base half side 1.2 m)
+    assert np.all((risers >= 0.04) & (risers <= 0.08))
+    levels = np.round(tops / risers).astype(int)
+    np.testing.assert_allclose(tops, levels * risers, atol=1e-12)
+    assert set(levels.ravel()) == {1, 2, 3, 4}  # 64 tiles draw every count of levels
+    assert terrain.height(20.0, 0.0) == 0.0  # the floor beyond the field
+
+
+def test_pyramids_same_seed_same_model_and_params_rebuild():
+    _, a, ta = build("pyramids", seed=345, robot=False)
+    _, b, _ = build("pyramids", seed=345, robot=False)
+    _, c, _ = build("pyramids", seed=556, robot=False)
+    _, again, _ = build("pyramids", params=ta.params, seed=345, robot=False)
+    for other in (b, again):
+        np.testing.assert_array_equal(a.geom_pos, other.geom_pos)
+        np.testing.assert_array_equal(a.geom_size, other.geom_size)
+    assert a.ngeom != c.ngeom or not np.array_equal(a.geom_size, c.geom_size)
+
+
 def _corner_min_z(model: mujoco.MjModel, data: mujoco.MjData, geom: str) -> float:
     g = model.geom(geom)
     signs = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
@@ -347,6 +381,8 @@ def test_seesaw_spawn_faces_the_low_end():
         ("perlin", {"amplitude": float("nan")}, ["perlin", "amplitude", "finite"]),
         ("tabletop", {"height": 0.15}, ["tabletop", "height", "floor"]),
         ("seesaw", {"max_tilt": 0.0}, ["seesaw", "max_tilt"]),
+        ("pyramids", {"tread_low": 0.4}, ["pyramids", "tread_high"]),
+        ("pyramids", {"max_levels": 6}, ["pyramids", "top", "tread"]),
     ],
 )
 def test_bad_parameter_is_named(name, params, words):

@@ -21,7 +21,7 @@ from krl.control.commands import CommandParams
 from krl.control.filters import DEFAULT_ALPHA
 from krl.robots.a1.constants import FOOT_FRICTION, NUM_LEGS
 from krl.sim.pushes import PushDistribution
-from krl.sim.terrains import HEIGHTFIELD_MAX_HEIGHT_RANGE, MAX_GROUND_FRICTION
+from krl.sim.terrains import HEIGHTFIELD_MAX_HEIGHT_RANGE, MAX_GROUND_FRICTION, PYRAMIDS_STEP_HEIGHT_RANGE
 from krl.task.reward import EVALUATION_REWARD, RewardConfig, RewardConfigError
 from krl.task.waypoints import TARGET_DISTANCE
 
@@ -134,9 +134,15 @@ class EnvConfig:
     """The training environment (Section 4.2.9)."""
 
     heightfield_probability: float = 0.75
-    """Probability that a new terrain is a random height field (else Perlin hills)."""
+    """Probability that a new terrain is a random height field (else stepped pyramids, with
+    ``pyramids_probability``, else Perlin hills)."""
     heightfield_max_height: tuple[float, float] = HEIGHTFIELD_MAX_HEIGHT_RANGE
     """Height-field perturbation h ~ U(low, high) [m] (blocks of height U(0, h))."""
+    pyramids_probability: float = 0.0
+    """Probability that a new terrain is a field of stepped pyramids (the terrain ``pyramids``). Ours, a
+    training option: the thesis trains on height fields and hills only, the default."""
+    pyramids_step_height: tuple[float, float] = PYRAMIDS_STEP_HEIGHT_RANGE
+    """Each pyramid's riser height ~ U(low, high) [m]."""
     friction: tuple[float, float] = (FOOT_FRICTION, FOOT_FRICTION)
     """The ground's sliding friction μ ~ U(low, high) [-] of each new terrain (the terrains' ``friction``
     parameter). Ours, a training option: the thesis trains on μ = 1, the default, where nothing is drawn,
@@ -170,6 +176,14 @@ class EnvConfig:
         _range("heightfield_max_height", self.heightfield_max_height)
         if self.heightfield_max_height[0] <= 0:
             raise AgentConfigError("heightfield_max_height must be > 0 m")
+        if not 0 <= self.pyramids_probability <= 1 - self.heightfield_probability:
+            raise AgentConfigError(
+                "pyramids_probability must be in [0, 1 - heightfield_probability], got "
+                f"{self.pyramids_probability!r}"
+            )
+        _range("pyramids_step_height", self.pyramids_step_height)
+        if self.pyramids_step_height[0] <= 0:
+            raise AgentConfigError("pyramids_step_height must be > 0 m")
         _range("friction", self.friction)
         if not 0 < self.friction[0] <= self.friction[1] <= MAX_GROUND_FRICTION:
             raise AgentConfigError(

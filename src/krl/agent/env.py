@@ -100,15 +100,21 @@ class ResidualEnvBatch:
         self.needs_terrain[index] = True
 
     def _terrain(self, index: int):
-        """A new terrain for environment ``index`` from its rng: a height field or Perlin hills, and the
-        ground's friction μ ~ U(``config.env.friction``), drawn only when that range is not one value (so
-        the default, μ = 1, makes the draws of runs before the option). Its name carries μ where not 1."""
+        """A new terrain for environment ``index`` from its rng: a height field, stepped pyramids or Perlin
+        hills (one U(0, 1) draw picks, so with no pyramids the draws are those of runs before them), and
+        the ground's friction μ ~ U(``config.env.friction``), drawn only when that range is not one value
+        (so the default, μ = 1, makes the draws of runs before the option). Its name carries μ where not
+        1."""
         rng = self.rngs[index]
         env = self.config.env
         seed = int(rng.integers(2**31))
-        if rng.random() < env.heightfield_probability:
+        kind = rng.random()
+        if kind < env.heightfield_probability:
             low, high = env.heightfield_max_height
             name, params = "heightfield", {"max_height_low": low, "max_height_high": high}
+        elif kind < env.heightfield_probability + env.pyramids_probability:
+            low, high = env.pyramids_step_height
+            name, params = "pyramids", {"step_height_low": low, "step_height_high": high}
         else:
             name, params = "perlin", {}
         low, high = env.friction
@@ -258,7 +264,8 @@ class A1ResidualEnv(gym.Env):
     ## Starting state
     The robot stands at the terrain's spawn point facing a random direction; waypoints are drawn
     ``config.env.target_distance`` m apart, ``config.env.field_margin`` m inside the field. The terrain is a
-    random height field with probability ``config.env.heightfield_probability``, else Perlin hills, kept for
+    random height field with probability ``config.env.heightfield_probability``, stepped pyramids with
+    ``config.env.pyramids_probability`` (0, the thesis's, by default), else Perlin hills, kept for
     ``config.env.episodes_per_terrain`` episodes, its ground friction μ ~ U(``config.env.friction``) (1, the
     thesis's, by default). Pushes (``config.env.pushes``) come every ``push_interval`` s with a force of
     ``push_magnitude`` N. ``reset(seed=s)`` seeds all of these.

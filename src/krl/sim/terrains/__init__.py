@@ -18,14 +18,15 @@ Modules, each importing only those listed before it:
   triangulates it, slopes).
 - :mod:`~krl.sim.terrains.params`: :data:`TERRAIN_NAMES`, :class:`TerrainError`, the parameter dataclasses
   (:class:`GroundParams`, what every terrain has, and ``FlatParams`` ... ``SeesawParams``, with
-  :data:`HEIGHTFIELD_MAX_HEIGHT_RANGE`) and their resolution and bound checks.
+  :data:`HEIGHTFIELD_MAX_HEIGHT_RANGE` and :data:`PYRAMIDS_STEP_HEIGHT_RANGE`) and their resolution and
+  bound checks.
 - :mod:`~krl.sim.terrains.terrain`: :class:`Terrain`, what a build returns (spawn, landmarks, height query).
 - :mod:`~krl.sim.terrains.geoms`: the geom every terrain adds (collision settings, :data:`TERRAIN_FRICTION`,
   :data:`TERRAIN_PRIORITY`), the floor plane and setting the ground's friction.
 - :mod:`~krl.sim.terrains.heightfields`: the height-field terrains: random height field, Perlin hills,
   sinusoid (and :func:`sinusoid_amplitude`).
-- :mod:`~krl.sim.terrains.primitives`: the terrains built from planes and boxes: flat, stairs, and the
-  moving props table-top and seesaw.
+- :mod:`~krl.sim.terrains.primitives`: the terrains built from planes and boxes: flat, stairs, pyramids,
+  and the moving props table-top and seesaw.
 - :mod:`~krl.sim.terrains.scene`: :func:`add_terrain` (the registry of builders and the scene every terrain
   shares: sky, textures, materials, lights) and :func:`terrain_param_defaults`.
 """
@@ -37,11 +38,13 @@ from krl.sim.terrains.params import (
     HEIGHTFIELD_MAX_HEIGHT_RANGE,
     HEIGHTFIELD_MILD_MAX_HEIGHT,
     MAX_GROUND_FRICTION,
+    PYRAMIDS_STEP_HEIGHT_RANGE,
     TERRAIN_NAMES,
     FlatParams,
     GroundParams,
     HeightfieldParams,
     PerlinParams,
+    PyramidsParams,
     SeesawParams,
     SinusoidParams,
     SlopeParams,
@@ -57,6 +60,7 @@ __all__ = [
     "HEIGHTFIELD_MILD_MAX_HEIGHT",
     "MAX_GROUND_FRICTION",
     "MAX_HFIELD_SIDE",
+    "PYRAMIDS_STEP_HEIGHT_RANGE",
     "TERRAIN_FRICTION",
     "TERRAIN_NAMES",
     "TERRAIN_PRIORITY",
@@ -65,6 +69,7 @@ __all__ = [
     "HeightGrid",
     "HeightfieldParams",
     "PerlinParams",
+    "PyramidsParams",
     "SeesawParams",
     "SinusoidParams",
     "SlopeParams",

@@ -23,11 +23,13 @@ __all__ = [
     "HEIGHTFIELD_MAX_HEIGHT_RANGE",
     "HEIGHTFIELD_MILD_MAX_HEIGHT",
     "MAX_GROUND_FRICTION",
+    "PYRAMIDS_STEP_HEIGHT_RANGE",
     "TERRAIN_NAMES",
     "FlatParams",
     "GroundParams",
     "HeightfieldParams",
     "PerlinParams",
+    "PyramidsParams",
     "SeesawParams",
     "SinusoidParams",
     "SlopeParams",
@@ -46,6 +48,7 @@ TERRAIN_NAMES: tuple[str, ...] = (
     "sinusoid",
     "slope",
     "stairs",
+    "pyramids",
     "tabletop",
     "seesaw",
 )
@@ -61,6 +64,12 @@ HEIGHTFIELD_MILD_MAX_HEIGHT: float = 0.02
 """The perturbation bound h [m] of ``heightfield_mild``, our reading of the thesis's optimisation terrain
 (4.2.1, Fig. 4.2b: "a moderately difficult height-field terrain with perturbations 0.35cm"; see
 docs/terrains.md)."""
+
+
+PYRAMIDS_STEP_HEIGHT_RANGE: tuple[float, float] = (0.04, 0.08)
+"""(low, high) of each stepped pyramid's riser height draw U(low, high) [m] (ours, docs/terrains.md): from
+the thesis's 4 cm stairs to twice them, within what the A1's legs lift (the kernel-ext's step heights reach
+0.18 m). The defaults of ``PyramidsParams.step_height_low`` and ``step_height_high``."""
 
 
 MAX_GROUND_FRICTION: float = 5.0
@@ -226,6 +235,44 @@ class StairsParams(GroundParams):
     """Distance from the spawn point (the origin) to the first riser along +x [m]."""
 
     def _problem(self) -> str | None:
+        return None
+
+
+@dataclass(frozen=True)
+class PyramidsParams(GroundParams):
+    """A field of stepped pyramids, a training ground of ours (docs/terrains.md): square tiles, each a
+    pyramid of concentric square levels of its own riser height, tread and number of levels, with flat
+    lanes between them."""
+
+    step_height_low: float = _p(PYRAMIDS_STEP_HEIGHT_RANGE[0], gt=0.0, le=0.5)
+    """Lower end of each pyramid's riser height draw U(low, high) [m]."""
+    step_height_high: float = _p(PYRAMIDS_STEP_HEIGHT_RANGE[1], gt=0.0, le=0.5)
+    """Upper end of each pyramid's riser height draw [m]."""
+    tread_low: float = _p(0.25, gt=0.0, le=5.0)
+    """Lower end of each pyramid's tread depth draw U(low, high) [m]."""
+    tread_high: float = _p(0.33, gt=0.0, le=5.0)
+    """Upper end of each pyramid's tread depth draw [m]."""
+    max_levels: int = _p(4, ge=1, le=20)
+    """Each pyramid has 1 ... max_levels levels (uniform) [-]; its top is at levels · riser height."""
+    tile: float = _p(3.0, gt=0.0, le=20.0)
+    """Side of the square tile of each pyramid [m]; tiles are centred on odd multiples of tile / 2."""
+    lane: float = _p(0.6, gt=0.0, le=20.0)
+    """Width of the flat lane between neighbouring pyramids [m]; the spawn point, the origin, is a
+    crossing of lanes."""
+    half_size: float = _p(12.0, gt=0.0, le=100.0)
+    """The field covers [-half_size, half_size]² [m], rounded up to whole tiles."""
+
+    def _problem(self) -> str | None:
+        for name in ("step_height", "tread"):
+            low, high = getattr(self, f"{name}_low"), getattr(self, f"{name}_high")
+            if high < low:
+                return f"parameter '{name}_high' = {high} must be >= '{name}_low' = {low}"
+        top = self.tile - self.lane - 2 * (self.max_levels - 1) * self.tread_high
+        if top < self.tread_high:
+            return (
+                "the top of the highest pyramid must be at least a tread wide "
+                "(tile - lane - 2 (max_levels - 1) tread_high >= tread_high)"
+            )
         return None
 
 

@@ -1,7 +1,8 @@
-"""The terrains built from MuJoCo primitives: flat (a plane), stairs (boxes), and the moving props table-top
-(a plate on a ball joint) and seesaw (a plank on a hinge), each on a floor plane at z = 0.
+"""The terrains built from MuJoCo primitives: flat (a plane), stairs and pyramids (boxes), and the moving
+props table-top (a plate on a ball joint) and seesaw (a plank on a hinge), each on a floor plane at z = 0.
 
-No random draws: the ``rng`` argument of the builders is unused (it keeps one builder signature).
+Only the pyramids draw at random (their draw order is in :func:`build_pyramids`); the other builders leave
+their ``rng`` argument unused (it keeps one builder signature).
 """
 
 from __future__ import annotations
@@ -13,10 +14,10 @@ import mujoco
 import numpy as np
 
 from krl.sim.terrains.geoms import add_floor, add_geom, spec_angle
-from krl.sim.terrains.params import FlatParams, SeesawParams, StairsParams, TabletopParams
+from krl.sim.terrains.params import FlatParams, PyramidsParams, SeesawParams, StairsParams, TabletopParams
 from krl.sim.terrains.terrain import Terrain
 
-__all__ = ["build_flat", "build_seesaw", "build_stairs", "build_tabletop"]
+__all__ = ["build_flat", "build_pyramids", "build_seesaw", "build_stairs", "build_tabletop"]
 
 
 def build_flat(spec: mujoco.MjSpec, name: str, p: FlatParams, rng: np.random.Generator) -> Terrain:
@@ -82,6 +83,61 @@ def build_stairs(spec: mujoco.MjSpec, name: str, p: StairsParams, rng: np.random
             "landing_end": (landing_x1, 0.0),
             "stairs_end": (end_x, 0.0),
         },
+        _height_fn=height,
+    )
+
+
+def build_pyramids(spec: mujoco.MjSpec, name: str, p: PyramidsParams, rng: np.random.Generator) -> Terrain:
+    """Add the field of stepped pyramids: one per tile, level k (1 ... levels) a box from the floor to
+    k · riser, of side (tile - lane) - 2 (k - 1) · tread, centred on the tile; treads alternate two tints.
+
+    Draw order (fixed, for reproducibility), tile by tile, rows along y then columns along x: the riser
+    height ~ U(step_height_low, step_height_high), the tread ~ U(tread_low, tread_high), the number of levels
+    ~ uniform on 1 ... max_levels.
+    """
+    floor = add_floor(spec)
+    per_side = 2 * math.ceil(p.half_size / p.tile - 1e-9)
+    centres = (np.arange(per_side) - 0.5 * (per_side - 1)) * p.tile
+    base = p.tile - p.lane
+    riser = np.empty((per_side, per_side))
+    tread = np.empty((per_side, per_side))
+    levels = np.empty((per_side, per_side), dtype=np.int64)
+    names = [floor]
+    for row in range(per_side):
+        for col in range(per_side):
+            riser[row, col] = rng.uniform(p.step_height_low, p.step_height_high)
+            tread[row, col] = rng.uniform(p.tread_low, p.tread_high)
+            levels[row, col] = rng.integers(1, p.max_levels + 1)
+            for k in range(1, levels[row, col] + 1):
+                half_side = 0.5 * base - (k - 1) * tread[row, col]
+                top = k * riser[row, col]
+                gname = f"pyramid_{row}_{col}_{k}"
+                add_geom(
+                    spec.worldbody,
+                    gname,
+                    mujoco.mjtGeom.mjGEOM_BOX,
+                    "krl_steps" if k % 2 == 1 else "krl_steps_alt",
+                    pos=[centres[col], centres[row], 0.5 * top],
+                    size=[half_side, half_side, 0.5 * top],
+                )
+                names.append(gname)
+    half = 0.5 * per_side * p.tile
+
+    def height(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        col = np.clip(np.floor((x + half) / p.tile).astype(np.int64), 0, per_side - 1)
+        row = np.clip(np.floor((y + half) / p.tile).astype(np.int64), 0, per_side - 1)
+        # Chebyshev distance from the tile's centre, then the levels whose square still covers the point.
+        inset = 0.5 * base - np.maximum(np.abs(x - centres[col]), np.abs(y - centres[row]))
+        level = np.where(inset >= 0.0, np.floor(inset / tread[row, col]) + 1, 0)
+        level = np.minimum(level, levels[row, col])
+        return np.where(np.maximum(np.abs(x), np.abs(y)) <= half, level * riser[row, col], 0.0)
+
+    return Terrain(
+        name=name,
+        params=dataclasses.asdict(dataclasses.replace(p, half_size=half)),
+        spawn_xy=(0.0, 0.0),
+        geom_names=tuple(names),
+        landmarks={"field_min": (-half, -half), "field_max": (half, half)},
         _height_fn=height,
     )
 

@@ -24,6 +24,7 @@ from krl.sim.terrains.params import (
     FlatParams,
     HeightfieldParams,
     PerlinParams,
+    PyramidsParams,
     SeesawParams,
     SinusoidParams,
     SlopeParams,
@@ -32,7 +33,7 @@ from krl.sim.terrains.params import (
     TerrainError,
     resolve_params,
 )
-from krl.sim.terrains.primitives import build_flat, build_seesaw, build_stairs, build_tabletop
+from krl.sim.terrains.primitives import build_flat, build_pyramids, build_seesaw, build_stairs, build_tabletop
 from krl.sim.terrains.terrain import Terrain
 
 __all__ = ["add_terrain", "terrain_param_defaults"]
@@ -102,6 +103,7 @@ def _registry(name: str) -> tuple[type, dict[str, Any], Callable[..., Terrain]]:
         "sinusoid": (SinusoidParams, {}, build_sinusoid),
         "slope": (SlopeParams, {}, build_slope),
         "stairs": (StairsParams, {}, build_stairs),
+        "pyramids": (PyramidsParams, {}, build_pyramids),
         "tabletop": (TabletopParams, {}, build_tabletop),
         "seesaw": (SeesawParams, {}, build_seesaw),
     }
