@@ -61,6 +61,28 @@ def test_every_seed_walks_the_same_heldout_episodes_and_a_rerun_reads_them(
     assert heldout_json(capsys, "--policy", f"tiny={tiny_group}", "--out", str(out)) == first
 
 
+def test_env_walks_every_policy_in_one_given_environment(tmp_path, tiny_group, capsys, monkeypatch):
+    env_file = tmp_path / "pyramids.json"
+    ground = {"heightfield_probability": 0.0, "pyramids_probability": 1.0, "episode_time": 0.25}
+    env_file.write_text(json.dumps({"env": ground}))
+    out = tmp_path / "on-pyramids"
+    args = ("--policy", f"tiny={tiny_group}", "--out", str(out))
+    first = heldout_json(capsys, *args, "--env", str(env_file))
+    for seed in (1, 2):
+        record = json.loads((out / "tiny" / f"seed{seed}.json").read_text())
+        assert record["env"]["pyramids_probability"] == 1.0
+        for episode in record["episodes_walked"]:
+            assert episode["terrain"].startswith("pyramids-") and episode["length_s"] <= 0.25 + 1e-9
+
+    def walked(*args):
+        raise AssertionError("walked")
+
+    monkeypatch.setattr(heldout, "heldout_episodes", walked)
+    assert heldout_json(capsys, *args, "--env", str(env_file)) == first  # the same environment: read
+    with pytest.raises(AssertionError, match="walked"):  # the policies' own environment: walked anew
+        heldout_json(capsys, *args)
+
+
 def test_the_heldout_environments_are_no_training_environments():
     # the largest environment seed of the recipe's runs: seed 556 resumed at its last checkpoint, last env
     recipe = replace(AgentConfig(), workers=2, num_envs=16, checkpoint_every=500_000)
@@ -91,6 +113,7 @@ def test_the_group_row_is_the_mean_and_sample_std_over_seeds():
         (["--policy", "rp", "--episodes", "0"], "--episodes must be at least 1, got 0"),
         (["--policy", "a=rp", "--policy", "a=base"], "the label 'a' is given twice"),
         (["--policy", "../x=rp"], "--policy '../x=rp': a label is letters, digits, '.', '_' or '-'"),
+        (["--policy", "rp", "--env", "nowhere.json"], "--env nowhere.json: cannot read agent config"),
     ],
 )
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, args, message):

@@ -211,6 +211,14 @@ def run_heldout(args: argparse.Namespace) -> int:
     workers = usable_cores() if args.workers is None else args.workers
     if workers < 1:
         raise CliError(f"--workers must be at least 1, got {workers}")
+    env = None
+    if args.env:
+        from krl.agent.config import AgentConfig, AgentConfigError
+
+        try:
+            env = AgentConfig.load(args.env).env
+        except (AgentConfigError, OSError) as error:
+            raise CliError(f"--env {args.env}: {error}") from None
     groups = labelled_policies(args.policy, policy_artifacts)
     candidates = [label.strip() for label in args.choose.split(",")] if args.choose else []
     if args.seed_group and not candidates:
@@ -230,7 +238,7 @@ def run_heldout(args: argparse.Namespace) -> int:
                 record_path = out / label / ("policy.json" if seed is None else f"seed{seed}.json")
                 try:
                     record = policy_record(
-                        path, record_path, args.episodes, workers, lambda: bar.advance(task)
+                        path, record_path, args.episodes, workers, lambda: bar.advance(task), env
                     )
                 except WorkerError as error:
                     raise CliError(
@@ -384,6 +392,11 @@ def register(subparsers) -> None:
         "--seed-group",
         help="with --choose: copy the chosen label's policies (and run files) into this seed group as "
         "seed<S>/, beside the seeds chosen-config.json trains",
+    )
+    p.add_argument(
+        "--env",
+        help="an agent config file: every policy walks the episodes of its env section (terrains, pushes, "
+        "reward) instead of its own training environment's, to compare recipes trained on different ground",
     )
     p.add_argument("--workers", type=int, help="environment processes (default: one per usable core)")
     p.add_argument("--out", required=True, help="output folder: one record per policy file, heldout.md/.csv")

@@ -7,6 +7,10 @@ environment seeds no training ever used (:data:`HELDOUT_SEED` on), with its dete
 network's mean, as in every evaluation). Environment ``k`` of the ``episodes`` is seeded ``HELDOUT_SEED +
 k``, so every policy meets the same terrains, starts, waypoints and push draws.
 
+To compare recipes trained on different grounds, every policy can walk the episodes of one given
+environment instead (``env``: a config's :class:`krl.agent.config.EnvConfig`; its terrains, pushes,
+waypoints and reward), still from the held-out seeds.
+
 Per episode: waypoints reached, whether it fell, its length [s] and reward per step; per policy the
 training's own metrics over them (targets reached, success rate as :data:`krl.agent.callbacks.SUCCESS_TARGETS`
 defines it, fall rate, reward per step); per seed group the mean and sample std of those over its seeds.
@@ -17,6 +21,7 @@ a bound, the sign that the bound, not the policy, limits what the drive can do.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Callable
@@ -27,6 +32,7 @@ import numpy as np
 
 from krl.agent.action import DRIVE_PARTS, ActionPart, action_parts
 from krl.agent.callbacks import SUCCESS_TARGETS
+from krl.agent.config import AgentConfig, EnvConfig
 from krl.agent.policy import RECIPE_FIELDS, check_kernel_file, load_policy
 from krl.agent.process_vec_env import ProcessVecEnv
 from krl.kernel.model import load_kernel
@@ -43,20 +49,25 @@ METRICS: tuple[str, ...] = ("targets_reached", "success_rate", "fall_rate", "rew
 
 
 def heldout_episodes(
-    path: Path, episodes: int, workers: int, on_episode: Callable[[], None] = lambda: None
+    path: Path,
+    episodes: int,
+    workers: int,
+    on_episode: Callable[[], None] = lambda: None,
+    env: EnvConfig | None = None,
 ) -> tuple[list[dict[str, Any]], dict[str, dict[str, float]]]:
     """Walk ``episodes`` held-out episodes with the policy file at ``path`` (``workers`` processes), one
-    episode per environment. Returns one dict per episode, in environment order (``targets_reached``,
-    ``fell``, ``length_s`` [s], ``reward_per_step``, ``terrain``), and the policy's :func:`drive_usage`
-    over every step of them (empty for a policy that drives nothing). ``on_episode`` is called as each
-    episode ends."""
+    episode per environment, in the policy's own training environment or in ``env``. Returns one dict per
+    episode, in environment order (``targets_reached``, ``fell``, ``length_s`` [s], ``reward_per_step``,
+    ``terrain``), and the policy's :func:`drive_usage` over every step of them (empty for a policy that
+    drives nothing). ``on_episode`` is called as each episode ends."""
     policy = load_policy(path)
     kernel = check_kernel_file(policy, None, path)
     parts = action_parts(policy.config.residual, load_kernel(kernel))
     drives = any(part.name in DRIVE_PARTS for part in parts)
     workers = max(1, min(workers, episodes))
     per_worker = math.ceil(episodes / workers)
-    venv = ProcessVecEnv(policy.config, workers, per_worker, HELDOUT_SEED, str(kernel))
+    config = policy.config if env is None else dataclasses.replace(policy.config, env=env)
+    venv = ProcessVecEnv(config, workers, per_worker, HELDOUT_SEED, str(kernel))
     ended: list[dict[str, Any] | None] = [None] * episodes
     asked: list[np.ndarray] = []
     try:
@@ -137,18 +148,28 @@ def summarise(episodes: list[dict[str, Any]]) -> dict[str, float]:
 
 
 def policy_record(
-    path: Path, record_path: Path, episodes: int, workers: int, on_episode: Callable[[], None]
+    path: Path,
+    record_path: Path,
+    episodes: int,
+    workers: int,
+    on_episode: Callable[[], None],
+    env: EnvConfig | None = None,
 ) -> dict[str, Any]:
     """The held-out record of one policy file: read from ``record_path`` when it holds this file (by
-    SHA-256), episode count and seed, else walked and written there (atomically)."""
+    SHA-256), episode count, seed and environment (``env``, None: the policy's own), else walked and
+    written there (atomically)."""
     identity = {"policy_sha256": file_sha256(path), "episodes": episodes, "heldout_seed": HELDOUT_SEED}
+    if env is not None:  # absent for the policy's own environment, as in records made before the option
+        identity["env"] = json.loads(json.dumps(AgentConfig(env=env).to_json()["env"]))
     if record_path.is_file():
         stored = json.loads(record_path.read_text())
-        if all(stored.get(key) == value for key, value in identity.items()):
+        if all(stored.get(key) == value for key, value in identity.items()) and ("env" in stored) == (
+            env is not None
+        ):
             for _ in range(episodes):
                 on_episode()
             return stored
-    walked, usage = heldout_episodes(path, episodes, workers, on_episode)
+    walked, usage = heldout_episodes(path, episodes, workers, on_episode, env)
     record = json_value(
         {
             "policy": str(path),
