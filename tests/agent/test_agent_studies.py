@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -13,7 +14,7 @@ import optuna
 import pytest
 from agent_fakes import LOG_COLUMNS, TINY_STUDY
 
-from krl.agent.config import ResidualConfig
+from krl.agent.config import AgentConfig, ResidualConfig
 from krl.agent.studies import designs, runner
 from krl.agent.studies.designs import STUDIES, StudyDesign, Variant
 from krl.agent.studies.report import replay_pruning, replay_resampled, write_study_report
@@ -351,6 +352,21 @@ def test_a_study_whose_trials_fail_exits_non_zero_naming_the_first_error(tmp_pat
     err = captured.err.strip()
     assert err.startswith("krl: 2 trial(s) of study alternative failed, first residual-seed7: StudyError:")
     assert "logged no rollout with an ended episode" in err and len(err.splitlines()) == 1
+
+
+def test_the_ground_study_is_agent_gaits_recipe_on_other_ground():
+    study = STUDIES["gait-ground"]
+    settings = StudySettings.of(study)
+    configs = {
+        v.name: runner.trial_config(study, settings, v.overrides, study.budget) for v in study.variants
+    }
+    chosen = Path(__file__).parents[2] / "docs/results/agent/gait-heldout/chosen-config.json"
+    agent_gait = AgentConfig.load(chosen)  # the held-out choice's recipe, which agent-gait's seeds train
+    agent_gait = replace(agent_gait, workers=None)  # a trial takes the machine's (its run records 2)
+    on_pyramids = replace(agent_gait.env, heightfield_probability=0.5, pyramids_probability=0.25)
+    assert configs["pyramids"] == replace(agent_gait, env=on_pyramids)
+    pushed = replace(on_pyramids, push_magnitude=(100.0, 600.0))
+    assert configs["pyramids-pushes"] == replace(agent_gait, env=pushed)
 
 
 def test_the_gait_ablation_adds_one_drive_at_a_time_to_the_final_agent():

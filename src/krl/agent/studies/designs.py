@@ -1,5 +1,5 @@
-"""The thesis's agent studies (Sections 4.2.8.1-4.2.8.4) and our gait-driving ablation as data: what each
-trains and what it compares.
+"""The thesis's agent studies (Sections 4.2.8.1-4.2.8.4) and our gait-driving ablation and ground study as
+data: what each trains and what it compares.
 
 A study is either a **list** (named variants, each trained from every seed: Table 4.7's rewards, Fig.
 4.20's observation sets) or a **search** (random trials drawn from a space, each trained from one seed,
@@ -12,8 +12,9 @@ The base of every study is the thesis's optimisation set-up (4.2.1, Fig. 4.2b): 
 cm: 3.5 mm is nearly flat for a 2 cm foot and 3.5 cm no milder than the final agent's 3-4.5 cm, the reading
 docs/terrains.md gives). No Perlin hills and no pushes: the thesis adds both only for the final agent
 (4.2.9). The gait-driving ablation (ours) trains as the final agent does instead: its terrains, pushes,
-reward (agent-rp's) and 16 environments per worker, for 2e7 steps. The budgets and the seeds are the
-thesis's; ``krl agent study --budget/--seeds/--trials`` cut them down (docs/studies.md).
+reward (agent-rp's) and 16 environments per worker, for 2e7 steps; the ground study (ours) trains the
+ablation's chosen recipe so on ground with stepped pyramids, and with stronger pushes. The budgets and the
+seeds are the thesis's; ``krl agent study --budget/--seeds/--trials`` cut them down (docs/studies.md).
 """
 
 from __future__ import annotations
@@ -415,6 +416,48 @@ def _gait_variants() -> tuple[Variant, ...]:
     )
 
 
+# --- gait-ground: ours (issue #25) -------------------------------------------------------------------
+
+GAIT_GROUND_TERRAINS: dict[str, float] = {"heightfield_probability": 0.5, "pyramids_probability": 0.25}
+"""The ground study's terrains: stepped pyramids (risers U(4, 8) cm) a quarter of the time, taken from the
+height field's share; Perlin hills keep their quarter (the thesis: height field 0.75, hills 0.25)."""
+
+GAIT_GROUND_PUSH_MAGNITUDE: tuple[float, float] = (100.0, 600.0)
+"""Training pushes U(low, high) [N] of the ground study's ``pyramids-pushes`` (the thesis: U(100, 350) N):
+up to the 600 N of the lateral push target, where agent-gait's seed 150 fell (docs/agent-gait.md)."""
+
+GAIT_GROUND_RECIPE: str = "steer-both"
+"""The gait ablation's variant the ground study trains on other ground: agent-gait's (held-out choice)."""
+
+
+def _gait_ground_variants() -> tuple[Variant, ...]:
+    """agent-gait's action path on ground that asks for its drives: pyramids, and pyramids with pushes up to
+    :data:`GAIT_GROUND_PUSH_MAGNITUDE`."""
+    (recipe,) = [v for v in _gait_variants() if v.name == GAIT_GROUND_RECIPE]
+    pushes = {"push_magnitude": list(GAIT_GROUND_PUSH_MAGNITUDE)}
+    return (
+        Variant(
+            "pyramids",
+            "agent-gait's recipe, a quarter of its terrains stepped pyramids",
+            merged(recipe.overrides, {"env": GAIT_GROUND_TERRAINS}),
+        ),
+        Variant(
+            "pyramids-pushes",
+            "the same, and pushes up to 600 N",
+            merged(recipe.overrides, {"env": {**GAIT_GROUND_TERRAINS, **pushes}}),
+        ),
+    )
+
+
+_GAIT_BASE: dict[str, Any] = {
+    "num_envs": 16,
+    "env": {"friction": list(GAIT_ABLATION_FRICTION)},
+    "residual": {"kernel": "ext"},
+}
+"""The base of both gait studies: the final agent's training with friction drawn, on kernel-ext (the kernel
+in the base, so a --config's, krl reproduce's own kernel-ext, can take its place)."""
+
+
 STUDIES: dict[str, StudyDesign] = {
     "ppo-search": StudyDesign(
         name="ppo-search",
@@ -454,14 +497,16 @@ STUDIES: dict[str, StudyDesign] = {
     "gait-ablation": StudyDesign(
         name="gait-ablation",
         title="ours: what driving the gait buys (issue #25)",
-        # the kernel in the base, so a --config's (krl reproduce's own kernel-ext) can take its place
-        base={
-            "num_envs": 16,
-            "env": {"friction": list(GAIT_ABLATION_FRICTION)},
-            "residual": {"kernel": "ext"},
-        },
+        base=_GAIT_BASE,
         budget=20_000_000,
         variants=_gait_variants(),
+    ),
+    "gait-ground": StudyDesign(
+        name="gait-ground",
+        title="ours: agent-gait on ground that asks for its drives (issue #25)",
+        base=_GAIT_BASE,
+        budget=20_000_000,
+        variants=_gait_ground_variants(),
     ),
 }
 """Every agent study ``krl agent study NAME`` runs, by name."""

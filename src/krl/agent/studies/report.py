@@ -46,6 +46,8 @@ THESIS_FINDINGS: dict[str, str] = {
     "the kernel zero commands, where the robot is most stable.",
     "gait-ablation": "not in the thesis: its agent drives residuals only, and its conclusion proposes "
     "letting the agent choose the kernel's step and ride heights and the gait's parameters.",
+    "gait-ground": "not in the thesis: its conclusion finds that the agent cannot take steps much greater "
+    "than its training required; this study trains agent-gait's recipe where greater steps are required.",
 }
 """What the thesis reports for each study (its studies give figures, not numbers)."""
 
