@@ -73,6 +73,7 @@ def test_env_walks_every_policy_in_one_given_environment(tmp_path, tiny_group, c
         assert record["env"]["pyramids_probability"] == 1.0
         for episode in record["episodes_walked"]:
             assert episode["terrain"].startswith("pyramids-") and episode["length_s"] <= 0.25 + 1e-9
+    assert f"episodes of the environment of `{env_file}`" in (out / "heldout.md").read_text()
 
     def walked(*args):
         raise AssertionError("walked")

@@ -247,7 +247,7 @@ def run_heldout(args: argparse.Namespace) -> int:
                 records[label].append((seed, record))
     rows = group_rows(records)
     choice = choose(rows, candidates) if candidates else None
-    written = write_tables(rows, records, out, choice)
+    written = write_tables(rows, records, out, choice, args.env)
     if choice:
         chosen = groups[choice["chosen"]]
         try:

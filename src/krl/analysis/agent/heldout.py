@@ -290,18 +290,27 @@ def write_tables(
     records: dict[str, list[tuple[int | None, dict[str, Any]]]],
     out: Path,
     choice: dict[str, Any] | None = None,
+    ground: str | None = None,
 ) -> dict[str, str]:
     """``heldout.csv`` (the group rows) and ``heldout.md`` (them, every seed's summary and ``choice``,
-    :func:`choose`'s answer, when given) in ``out``."""
+    :func:`choose`'s answer, when given) in ``out``; ``ground`` names the config file whose environment
+    every policy walked (None: each its own)."""
     columns = ["label", "seeds", "episodes", *(f"{m}_{s}" for m in METRICS for s in ("mean", "std"))]
     write_atomic(out / "heldout.csv", csv_bytes(columns, rows))
+    where, reward = (
+        (
+            "its own training environment",
+            "each policy's own training reward: not comparable between policies trained on different rewards",
+        )
+        if ground is None
+        else (f"the environment of `{ground}`", "that environment's reward")
+    )
     lines = [
         "# Held-out episodes of the training distribution",
         "",
-        f"Each policy walks the same {rows[0]['episodes']} episodes of its own training environment, seeded "
-        f"from {HELDOUT_SEED} on (never a training seed), with its deterministic action; mean ± sample std "
-        f"over seeds. Success: at least {SUCCESS_TARGETS} waypoints without a fall. Reward/step is each "
-        "policy's own training reward: not comparable between policies trained on different rewards.",
+        f"Each policy walks the same {rows[0]['episodes']} episodes of {where}, seeded from {HELDOUT_SEED} "
+        "on (never a training seed), with its deterministic action; mean ± sample std over seeds. Success: "
+        f"at least {SUCCESS_TARGETS} waypoints without a fall. Reward/step is {reward}.",
         "",
         "| policy | seeds | targets reached | success rate | fall rate | reward/step |",
         "| --- | --- | --- | --- | --- | --- |",
