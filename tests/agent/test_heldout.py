@@ -250,3 +250,106 @@ def test_a_choice_of_policies_trained_differently_has_no_recipe(tmp_path, small_
     with pytest.raises(ValueError, match="'mixed' were trained with different recipes"):
         heldout.write_choice(choice, [(1, paths[0]), (2, paths[1])], tmp_path)
     assert not (tmp_path / "choice.json").exists() and not (tmp_path / "chosen-config.json").exists()
+
+
+def test_against_a_baseline_better_means_more_than_one_episode_and_no_worse_at_most_one_below():
+    rows = [group_row("base", 20 / 32, 4.0), group_row("x", 21 / 32, 4.0), group_row("y", 22 / 32, 4.0)]
+    assert not heldout.against_baseline(rows, "x", "base", must_beat=True)["holds"]  # one episode: a tie
+    assert heldout.against_baseline(rows, "y", "base", must_beat=True)["holds"]
+    assert heldout.against_baseline(rows, "base", "x", must_beat=False)["holds"]  # one below: no worse
+    check = heldout.against_baseline(rows, "base", "y", must_beat=False)
+    assert not check["holds"] and check["margin"] == -2 / 32 and check["tolerance"] == 1 / 32
+
+
+def fake_records(success: dict[str, tuple[int, int]]):
+    """A stand-in for ``policy_record``: each label's success (of 32) on its own episodes and on
+    ``--baseline-env``'s, by the record's folder; nothing walked."""
+
+    def record(path, record_path, episodes, workers, on_episode, env=None):
+        label = record_path.parent.name
+        on_baseline_env = env is not None  # the test gives no --env: only --baseline-env's walks have one
+        assert on_baseline_env == ("baseline-env" in record_path.parts)
+        rate = success[label][on_baseline_env] / 32
+        summary = {
+            "targets_reached": 4.0,
+            "success_rate": rate,
+            "fall_rate": 1 - rate,
+            "reward_per_step": 0.1,
+        }
+        return {"episodes": 32, "summary": summary, "policy": str(path)}
+
+    return record
+
+
+@pytest.mark.parametrize(("on_baseline_env", "stands"), [(27, True), (26, False)])
+def test_a_choice_stands_only_if_better_than_the_baseline_and_no_worse_on_its_ground(
+    tmp_path, tiny_group, capsys, monkeypatch, on_baseline_env, stands
+):
+    monkeypatch.setattr(
+        heldout, "policy_record", fake_records({"base": (20, 28), "p": (21, 0), "q": (23, on_baseline_env)})
+    )
+    own = tmp_path / "own.json"
+    own.write_text(json.dumps({"env": {"episode_time": 0.5}}))
+    out, group = tmp_path / "heldout", tmp_path / "agent-chosen"
+    labels = [arg for label in ("base", "p", "q") for arg in ("--policy", f"{label}={tiny_group}")]
+    options = [
+        "--choose",
+        "p,q",
+        "--baseline",
+        "base",
+        "--baseline-env",
+        str(own),
+        "--seed-group",
+        str(group),
+    ]
+    result = heldout_json(capsys, *labels, *options, "--out", str(out))
+    verdict = result["choice"]["baseline"]
+    assert result["choice"]["chosen"] == "q" and verdict["stands"] is stands
+    here, there = verdict["checks"].values()
+    assert here["margin"] == 3 / 32 and here["holds"]
+    assert there["margin"] == (on_baseline_env - 28) / 32 and there["holds"] is stands
+    table = (out / "baseline-env" / "heldout.md").read_text()  # the chosen and the baseline, on own.json's
+    assert f"the environment of `{own}`" in table and "| base |" in table and "| q |" in table
+    assert "| p |" not in table
+    assert json.loads((out / "choice.json").read_text())["baseline"]["stands"] is stands
+    assert (out / "chosen-config.json").exists() is stands and group.exists() is stands
+    assert (
+        f"The choice **{'stands' if stands else 'does not stand'}** against base"
+        in (out / "heldout.md").read_text()
+    )
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--baseline", "a"], "--baseline needs --choose"),
+        (["--choose", "a", "--baseline-env", "x.json"], "--baseline-env needs --baseline"),
+        (["--choose", "a", "--baseline", "z"], "--baseline 'z' is no --policy label"),
+        (["--choose", "a", "--baseline", "a"], "--baseline 'a' is also a --choose candidate"),
+        (
+            ["--choose", "a", "--baseline", "b", "--baseline-env", "x.json"],
+            "--baseline-env x.json: cannot read",
+        ),
+    ],
+)
+def test_bad_baseline_options_are_one_line(tmp_path, capsys, args, message):
+    assert (
+        main(
+            [
+                "agent",
+                "heldout",
+                "--policy",
+                "a=rp",
+                "--policy",
+                "b=base",
+                *args,
+                "--out",
+                str(tmp_path / "out"),
+                "--quiet",
+            ]
+        )
+        == 2
+    )
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "out").exists()

@@ -191,17 +191,74 @@ def run_push(args: argparse.Namespace) -> int:
     return 0
 
 
+def _heldout_env(path: str | None, option: str):
+    """The env section of the agent config file ``path`` (None for None); a CliError names ``option``."""
+    if path is None:
+        return None
+    from krl.agent.config import AgentConfig, AgentConfigError
+
+    try:
+        return AgentConfig.load(path).env
+    except AgentConfigError as error:
+        raise CliError(f"{option} {path}: {error}") from None
+
+
+def _walk_heldout(groups: dict, out: Path, args: argparse.Namespace, workers: int, env, bar) -> dict:
+    """Every policy file of ``groups`` ({label: [(seed, path)]}) on its held-out episodes (in ``env``, None:
+    its own), records read or written under ``out``; ``{label: [(seed, record)]}``."""
+    from krl.agent.process_vec_env import WorkerError
+    from krl.analysis.agent.heldout import policy_record
+
+    records: dict[str, list] = {}
+    task = bar.add_task(
+        f"held-out episodes ({out.name})", total=args.episodes * sum(map(len, groups.values()))
+    )
+    for label, files in groups.items():
+        records[label] = []
+        for seed, path in files:
+            record_path = out / label / ("policy.json" if seed is None else f"seed{seed}.json")
+            try:
+                record = policy_record(
+                    path, record_path, args.episodes, workers, lambda: bar.advance(task), env
+                )
+            except WorkerError as error:
+                raise CliError(
+                    f"{error}; the same command goes on from the policies already walked"
+                ) from None
+            records[label].append((seed, record))
+    return records
+
+
+def _check_heldout_args(args: argparse.Namespace, labels: list[str], candidates: list[str]) -> None:
+    """One-line errors for options that do not fit together, before any episode is walked."""
+    from krl.analysis.agent.heldout import check_candidates
+
+    if args.seed_group and not candidates:
+        raise CliError("--seed-group needs --choose: it receives the chosen label's policies")
+    if args.baseline_env and not args.baseline:
+        raise CliError("--baseline-env needs --baseline: the label the choice is held against there")
+    if args.baseline and not candidates:
+        raise CliError("--baseline needs --choose: it is the label the choice must beat")
+    if args.baseline and args.baseline not in labels:
+        raise CliError(f"--baseline {args.baseline!r} is no --policy label (labels: {', '.join(labels)})")
+    if args.baseline in candidates:
+        raise CliError(f"--baseline {args.baseline!r} is also a --choose candidate")
+    try:
+        check_candidates(labels, candidates)
+    except ValueError as error:
+        raise CliError(str(error)) from None
+
+
 def run_heldout(args: argparse.Namespace) -> int:
     from krl.agent.policy import policy_artifacts
-    from krl.agent.process_vec_env import WorkerError
     from krl.analysis.agent.heldout import (
         adopt_runs,
-        check_candidates,
+        against_baseline,
         choose,
         group_rows,
-        policy_record,
         write_choice,
         write_tables,
+        write_verdict,
     )
     from krl.util.parallel import usable_cores
     from krl.util.progress import progress_bar
@@ -211,44 +268,28 @@ def run_heldout(args: argparse.Namespace) -> int:
     workers = usable_cores() if args.workers is None else args.workers
     if workers < 1:
         raise CliError(f"--workers must be at least 1, got {workers}")
-    env = None
-    if args.env:
-        from krl.agent.config import AgentConfig, AgentConfigError
-
-        try:
-            env = AgentConfig.load(args.env).env
-        except (AgentConfigError, OSError) as error:
-            raise CliError(f"--env {args.env}: {error}") from None
     groups = labelled_policies(args.policy, policy_artifacts)
     candidates = [label.strip() for label in args.choose.split(",")] if args.choose else []
-    if args.seed_group and not candidates:
-        raise CliError("--seed-group needs --choose: it receives the chosen label's policies")
-    try:  # a bad --choose fails before any episode is walked
-        check_candidates(list(groups), candidates)
-    except ValueError as error:
-        raise CliError(str(error)) from None
+    _check_heldout_args(args, list(groups), candidates)
+    env, baseline_env = _heldout_env(args.env, "--env"), _heldout_env(args.baseline_env, "--baseline-env")
     out = Path(args.out)
-    records: dict[str, list] = {}
-    total = args.episodes * sum(len(files) for files in groups.values())
     with progress_bar(not args.quiet, unit="episodes") as bar:
-        task = bar.add_task("held-out episodes", total=total)
-        for label, files in groups.items():
-            records[label] = []
-            for seed, path in files:
-                record_path = out / label / ("policy.json" if seed is None else f"seed{seed}.json")
-                try:
-                    record = policy_record(
-                        path, record_path, args.episodes, workers, lambda: bar.advance(task), env
-                    )
-                except WorkerError as error:
-                    raise CliError(
-                        f"{error}; the same command goes on from the policies already walked"
-                    ) from None
-                records[label].append((seed, record))
-    rows = group_rows(records)
-    choice = choose(rows, candidates) if candidates else None
+        records = _walk_heldout(groups, out, args, workers, env, bar)
+        rows = group_rows(records)
+        choice = choose(rows, candidates) if candidates else None
+        if choice and args.baseline:
+            checks = {"these episodes": against_baseline(rows, choice["chosen"], args.baseline, True)}
+            if baseline_env is not None:
+                pair = {label: groups[label] for label in (choice["chosen"], args.baseline)}
+                again = _walk_heldout(pair, out / "baseline-env", args, workers, baseline_env, bar)
+                write_tables(group_rows(again), again, out / "baseline-env", None, args.baseline_env)
+                checks[f"`{args.baseline_env}`'s episodes"] = against_baseline(
+                    group_rows(again), choice["chosen"], args.baseline, False
+                )
+            stands = all(check["holds"] for check in checks.values())
+            choice["baseline"] = {"label": args.baseline, "checks": checks, "stands": stands}
     written = write_tables(rows, records, out, choice, args.env)
-    if choice:
+    if choice and choice.get("baseline", {}).get("stands", True):
         chosen = groups[choice["chosen"]]
         try:
             written |= write_choice(choice, chosen, out)
@@ -256,6 +297,8 @@ def run_heldout(args: argparse.Namespace) -> int:
                 written["seed_group"] = adopt_runs(choice["chosen"], chosen, Path(args.seed_group))
         except ValueError as error:
             raise CliError(str(error)) from None
+    elif choice:  # the choice does not stand against the baseline: recorded, nothing to train from
+        written["choice"] = write_verdict(choice, out)
     emit({"rows": rows, "written": written} | ({"choice": choice} if choice else {}), args.json)
     return 0
 
@@ -397,6 +440,16 @@ def register(subparsers) -> None:
         "--env",
         help="an agent config file: every policy walks the episodes of its env section (terrains, pushes, "
         "reward) instead of its own training environment's, to compare recipes trained on different ground",
+    )
+    p.add_argument(
+        "--baseline",
+        help="with --choose: a --policy label the choice must beat by more than one episode's success rate, "
+        "else nothing is chosen (choice.json says why; no chosen-config.json, nothing copied)",
+    )
+    p.add_argument(
+        "--baseline-env",
+        help="with --baseline: an agent config file on whose env's episodes the choice must also be no worse "
+        "than the baseline by more than one episode (records under OUT/baseline-env)",
     )
     p.add_argument("--workers", type=int, help="environment processes (default: one per usable core)")
     p.add_argument("--out", required=True, help="output folder: one record per policy file, heldout.md/.csv")

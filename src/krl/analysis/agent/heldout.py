@@ -233,6 +233,22 @@ def choose(rows: list[dict[str, Any]], candidates: list[str]) -> dict[str, Any]:
     return {"chosen": chosen, "tied": tied, "best_success_rate": best, "tolerance": tolerance}
 
 
+def against_baseline(
+    rows: list[dict[str, Any]], chosen: str, baseline: str, must_beat: bool
+) -> dict[str, Any]:
+    """How ``chosen`` stands against ``baseline`` (labels of ``rows``, :func:`group_rows`) on those episodes:
+    ``margin``, its mean success rate minus the baseline's; ``tolerance``, one episode (``1 / episodes``);
+    ``holds``: the margin exceeds the tolerance where ``must_beat`` (better here), else it is not below
+    minus the tolerance (no worse here)."""
+    by_label = {row["label"]: row for row in rows}
+    margin = by_label[chosen]["success_rate_mean"] - by_label[baseline]["success_rate_mean"]
+    tolerance = 1.0 / max(by_label[label]["episodes"] for label in (chosen, baseline))
+    holds = (
+        margin > tolerance + 1e-12 if must_beat else margin >= -tolerance - 1e-12
+    )  # rates are k / episodes
+    return {"margin": margin, "tolerance": tolerance, "must_beat": must_beat, "holds": bool(holds)}
+
+
 def write_choice(choice: dict[str, Any], files: list[tuple[int | None, Path]], out: Path) -> dict[str, str]:
     """Write the chosen recipe: ``choice.json`` (:func:`choose`'s answer and the chosen group's policy
     files) and ``chosen-config.json``, the config its first policy was trained with, for
@@ -251,6 +267,15 @@ def write_choice(choice: dict[str, Any], files: list[tuple[int | None, Path]], o
     record = {**choice, "policies": [str(path) for _, path in files], "config": str(config_path)}
     write_atomic(out / "choice.json", json.dumps(json_value(record), indent=1) + "\n")
     return {"choice": str(out / "choice.json"), "chosen_config": str(config_path)}
+
+
+def write_verdict(choice: dict[str, Any], out: Path) -> str:
+    """Write ``choice.json`` for a choice that does not stand against its baseline (:func:`against_baseline`):
+    nothing to train from, so a ``chosen-config.json`` an earlier run of the command left in ``out`` goes.
+    Returns the path written."""
+    (out / "chosen-config.json").unlink(missing_ok=True)
+    write_atomic(out / "choice.json", json.dumps(json_value(choice), indent=1) + "\n")
+    return str(out / "choice.json")
 
 
 RUN_FILES: tuple[str, ...] = ("config.json", "run.json", "progress.csv")
@@ -376,11 +401,25 @@ def _choice_lines(choice: dict[str, Any]) -> list[str]:
         if others
         else "no other candidate within one episode of it"
     )
-    return [
+    lines = [
         f"Chosen: **{choice['chosen']}**, the highest held-out success rate "
         f"({choice['best_success_rate']:.3g}) of the candidates, {tie} "
         "(`krl.analysis.agent.heldout.choose`).",
     ]
+    baseline = choice.get("baseline")
+    if baseline:
+        for where, check in baseline["checks"].items():
+            need = "better than" if check["must_beat"] else "no worse than"
+            verdict = "holds" if check["holds"] else "does not hold"
+            lines.append(
+                f"- {need} {baseline['label']} on {where}: success {check['margin']:+.3g} against it, "
+                f"one episode {check['tolerance']:.3g}: {verdict}."
+            )
+        lines.append(
+            f"The choice **{'stands' if baseline['stands'] else 'does not stand'}** against "
+            f"{baseline['label']} (`krl.analysis.agent.heldout.against_baseline`)."
+        )
+    return lines
 
 
 def _cells(row: dict[str, Any]) -> str:
