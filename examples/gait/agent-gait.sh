@@ -25,32 +25,8 @@ GAIT=$RUNS/agent-gait
 VARIANTS=(residual-ext heights rhythm both steer-both)
 DRIVING=heights,rhythm,both,steer-both
 
-running=()
-stop() {
-  trap - TERM INT
-  if [ ${#running[@]} -gt 0 ]; then kill -TERM "${running[@]}" 2>/dev/null || true; fi
-  wait
-  exit 130
-}
-trap stop TERM INT
-
-# Run each argument (a command line) at once and wait for all; the first failure stops the others.
-together() {
-  running=()
-  for command in "$@"; do
-    echo "$(date -u +%FT%TZ) $command"
-    bash -c "exec $command" &
-    running+=($!)
-  done
-  for pid in "${running[@]}"; do
-    if ! wait "$pid"; then
-      kill -TERM "${running[@]}" 2>/dev/null || true
-      wait
-      exit 1
-    fi
-  done
-  running=()
-}
+# shellcheck source=together.sh
+source "$(dirname "$0")/together.sh"
 
 together "krl agent study gait-ablation --out $ABLATION --seeds 150,215 --jobs 2 --quiet"
 

@@ -1,6 +1,7 @@
-"""examples/gait/agent-gait.sh, run against a stand-in ``krl`` that logs its arguments: the steps in order,
-the chosen variant's seeds and recipe, one evaluation of every variant and agent-gait, and one SIGTERM
-reaching the running command."""
+"""examples/gait/agent-gait.sh and agent-gait-ground.sh, run against a stand-in ``krl`` that logs its
+arguments: the steps in order, the chosen variant's seeds and recipe, one evaluation of every variant and
+agent-gait, the ground study's rule deciding whether its seeds train, and one SIGTERM reaching the running
+command."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from pathlib import Path
 import pytest
 
 SCRIPT = Path(__file__).resolve().parents[2] / "examples" / "gait" / "agent-gait.sh"
+GROUND_SCRIPT = SCRIPT.with_name("agent-gait-ground.sh")
 
 STAND_IN = r"""#!/usr/bin/env bash
 # logs its arguments; heldout --choose writes a choice; a SLOW command waits for a signal
@@ -22,7 +24,7 @@ if [ "$1 $2" = "$SLOW" ]; then sleep 60 & nap=$!; touch "$LOG.started"; wait; fi
 if [ "$1 $2" = "agent heldout" ]; then
   out=$(echo "$*" | sed -E 's/.*--out ([^ ]+).*/\1/')
   mkdir -p "$out"
-  echo '{"chosen": "rhythm"}' > "$out/choice.json"
+  echo "{\"chosen\": \"rhythm\", \"baseline\": {\"stands\": $STANDS}}" > "$out/choice.json"
   echo '{}' > "$out/chosen-config.json"
 fi
 """
@@ -38,6 +40,7 @@ def workspace(tmp_path):
         "PATH": f"{bin_dir}:{os.environ['PATH']}",
         "LOG": str(tmp_path / "krl.log"),
         "SLOW": "",
+        "STANDS": "true",
         "RUNS": "runs",
         "EVAL": "evaluations/gait",
         "REPORT": "report",
@@ -92,3 +95,42 @@ def test_the_script_runs_the_studys_variants_and_chooses_among_its_driving_ones(
     names = [name for name, _, drives, _ in GAIT_DRIVES]
     assert variants == f"VARIANTS=({' '.join(names)})"
     assert driving == "DRIVING=" + ",".join(name for name, _, drives, _ in GAIT_DRIVES if drives)
+
+
+@pytest.mark.parametrize("stands", [True, False])
+def test_the_ground_pipeline_trains_more_seeds_only_if_its_choice_stands(workspace, stands):
+    root, env = workspace
+    env = env | {"STANDS": "true" if stands else "false"}
+    done = subprocess.run(["bash", str(GROUND_SCRIPT)], cwd=root, env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    lines = (root / "krl.log").read_text().splitlines()
+    assert [" ".join(line.split()[:2]) for line in lines] == [
+        "agent study",
+        "agent heldout",
+        *(["agent train"] * 2 * stands),
+        "evaluate --controller",
+        "report --results",
+    ]
+    assert lines[0].startswith("agent study gait-ground --out runs/agent-studies/gait-ground --seeds 150,215")
+    heldout = lines[1]
+    for option in (
+        "--policy agent-gait=runs/agent-studies/gait-ablation/trials/list/steer-both-seed*",
+        "--env runs/agent-studies/gait-ground/trials/list/pyramids-pushes-seed150/config.json",
+        "--choose pyramids,pyramids-pushes --baseline agent-gait",
+        "--baseline-env runs/agent-studies/gait-ablation/trials/list/steer-both-seed150/config.json",
+        "--seed-group runs/agent-gait-ground",
+    ):
+        assert option in heldout
+    evaluate = lines[-2]
+    assert evaluate.count("-seed*") == 2 and "--out evaluations/gait" in evaluate
+    assert ("--controller agent:runs/agent-gait-ground " in evaluate) is stands
+    if stands:
+        assert all("--config runs/heldout-ground/chosen-config.json" in line for line in lines[2:4])
+
+
+def test_the_ground_script_runs_the_studys_variants():
+    from krl.agent.studies.designs import STUDIES
+
+    lines = GROUND_SCRIPT.read_text().splitlines()
+    (variants,) = [line for line in lines if line.startswith("VARIANTS=")]
+    assert variants == f"VARIANTS=({' '.join(v.name for v in STUDIES['gait-ground'].variants)})"
