@@ -48,18 +48,25 @@ def workspace(tmp_path):
     return tmp_path, env
 
 
-def test_the_pipeline_runs_its_steps_in_order_with_the_chosen_recipe(workspace):
-    root, env = workspace
-    done = subprocess.run(["bash", str(SCRIPT)], cwd=root, env=env, capture_output=True, text=True)
+def run_pipeline(script: Path, root: Path, env: dict, trains: int) -> list[str]:
+    """Run ``script`` to its end; the stand-in's log lines, checked to be the study, the held-out choice,
+    ``trains`` trainings, the evaluation and the report, in that order."""
+    done = subprocess.run(["bash", str(script)], cwd=root, env=env, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     lines = (root / "krl.log").read_text().splitlines()
     assert [" ".join(line.split()[:2]) for line in lines] == [
         "agent study",
         "agent heldout",
-        *(["agent train"] * 2),
+        *(["agent train"] * trains),
         "evaluate --controller",
         "report --results",
     ]
+    return lines
+
+
+def test_the_pipeline_runs_its_steps_in_order_with_the_chosen_recipe(workspace):
+    root, env = workspace
+    lines = run_pipeline(SCRIPT, root, env, trains=2)
     assert "--choose heights,rhythm,both,steer-both" in lines[1]
     assert "--policy residual-ext=runs/agent-studies/gait-ablation/trials/list/residual-ext-seed*" in lines[1]
     trains = sorted(lines[2:4])
@@ -101,16 +108,7 @@ def test_the_script_runs_the_studys_variants_and_chooses_among_its_driving_ones(
 def test_the_ground_pipeline_trains_more_seeds_only_if_its_choice_stands(workspace, stands):
     root, env = workspace
     env = env | {"STANDS": "true" if stands else "false"}
-    done = subprocess.run(["bash", str(GROUND_SCRIPT)], cwd=root, env=env, capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
-    lines = (root / "krl.log").read_text().splitlines()
-    assert [" ".join(line.split()[:2]) for line in lines] == [
-        "agent study",
-        "agent heldout",
-        *(["agent train"] * 2 * stands),
-        "evaluate --controller",
-        "report --results",
-    ]
+    lines = run_pipeline(GROUND_SCRIPT, root, env, trains=2 * stands)
     assert lines[0].startswith("agent study gait-ground --out runs/agent-studies/gait-ground --seeds 150,215")
     heldout = lines[1]
     for option in (
