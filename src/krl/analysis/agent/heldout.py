@@ -163,9 +163,7 @@ def policy_record(
         identity["env"] = json.loads(json.dumps(AgentConfig(env=env).to_json()["env"]))
     if record_path.is_file():
         stored = json.loads(record_path.read_text())
-        if all(stored.get(key) == value for key, value in identity.items()) and ("env" in stored) == (
-            env is not None
-        ):
+        if all(stored.get(key) == identity.get(key) for key in {*identity, "env"}):
             for _ in range(episodes):
                 on_episode()
             return stored
@@ -243,9 +241,8 @@ def against_baseline(
     by_label = {row["label"]: row for row in rows}
     margin = by_label[chosen]["success_rate_mean"] - by_label[baseline]["success_rate_mean"]
     tolerance = 1.0 / max(by_label[label]["episodes"] for label in (chosen, baseline))
-    holds = (
-        margin > tolerance + 1e-12 if must_beat else margin >= -tolerance - 1e-12
-    )  # rates are k / episodes
+    # rates are k / episodes: a margin of exactly one episode must compare as one episode
+    holds = margin > tolerance + 1e-12 if must_beat else margin >= -tolerance - 1e-12
     return {"margin": margin, "tolerance": tolerance, "must_beat": must_beat, "holds": bool(holds)}
 
 

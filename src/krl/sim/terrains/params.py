@@ -130,12 +130,9 @@ class HeightfieldParams(GroundParams):
     """Vertices within this distance of the spawn point are set to h / 2 (a level start) [m]."""
 
     def _problem(self) -> str | None:
-        if self.max_height_high < self.max_height_low:
-            return (
-                f"parameter 'max_height_high' = {self.max_height_high} must be >= "
-                f"'max_height_low' = {self.max_height_low}"
-            )
-        return _grid_problem(self.half_size, self.cell)
+        return _order_problem(self, "max_height_low", "max_height_high") or _grid_problem(
+            self.half_size, self.cell
+        )
 
 
 @dataclass(frozen=True)
@@ -166,12 +163,9 @@ class PerlinParams(GroundParams):
     """Radius at which the terrain has fully returned from the spawn patch to the noise [m]."""
 
     def _problem(self) -> str | None:
-        if self.blend_radius < self.spawn_radius:
-            return (
-                f"parameter 'blend_radius' = {self.blend_radius} must be >= "
-                f"'spawn_radius' = {self.spawn_radius}"
-            )
-        return _grid_problem(self.half_size, self.cell)
+        return _order_problem(self, "spawn_radius", "blend_radius") or _grid_problem(
+            self.half_size, self.cell
+        )
 
 
 @dataclass(frozen=True)
@@ -264,9 +258,9 @@ class PyramidsParams(GroundParams):
 
     def _problem(self) -> str | None:
         for name in ("step_height", "tread"):
-            low, high = getattr(self, f"{name}_low"), getattr(self, f"{name}_high")
-            if high < low:
-                return f"parameter '{name}_high' = {high} must be >= '{name}_low' = {low}"
+            problem = _order_problem(self, f"{name}_low", f"{name}_high")
+            if problem:
+                return problem
         top = self.tile - self.lane - 2 * (self.max_levels - 1) * self.tread_high
         if top < self.tread_high:
             return (
@@ -329,6 +323,14 @@ class SeesawParams(GroundParams):
 
     def _problem(self) -> str | None:
         return None
+
+
+def _order_problem(p: Any, smaller: str, larger: str) -> str | None:
+    """Why parameter ``larger`` of ``p`` (a parameter dataclass) is below parameter ``smaller``, or None."""
+    low, high = getattr(p, smaller), getattr(p, larger)
+    if high < low:
+        return f"parameter '{larger}' = {high} must be >= '{smaller}' = {low}"
+    return None
 
 
 def _grid_problem(half_size: float, cell: float) -> str | None:
