@@ -45,6 +45,28 @@ def test_each_shipped_agent_was_trained_with_its_own_reward(name, file, capsys):
     assert info["training"]["env_steps"] >= 20_000_000
 
 
+@pytest.mark.parametrize("seed", [150, 215, 345, 556])
+def test_shipped_agent_gait_drives_the_gait_of_kernel_ext(seed, capsys):
+    """agent-gait (docs/agent-gait.md): the thesis's reward, on kernel-ext, residuals and three drives."""
+    assert main(["agent", "info", "--policy", f"gait@{seed}", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["policy"] == f"krl/agent/policies/agent-gait/seed{seed}.npz"
+    assert (info["reward"], info["kernel"], info["training"]["seed"]) == ("rp", "ext", seed)
+    assert info["training"]["env_steps"] >= 20_000_000
+    assert [(part["name"], part["slice"]) for part in info["action"]] == [
+        ("residual", "0:12"),
+        ("steer", "12:15"),
+        ("heights", "15:17"),
+        ("clock_rate", "17:18"),
+    ]
+
+
+def test_the_faithful_agent_acts_with_residuals_only(capsys):
+    assert main(["agent", "info", "--json"]) == 0
+    (part,) = json.loads(capsys.readouterr().out)["action"]
+    assert (part["name"], part["at_plus_1"]) == ("residual", [0.08] * 12)
+
+
 def test_agent_errors_are_one_line(tmp_path, capsys):
     (tmp_path / "bad.npz").write_text("not a policy")
     assert main(["agent", "run", "--policy", str(tmp_path / "bad.npz"), "--targets", "1"]) == 2

@@ -29,9 +29,9 @@ from krl.util.output import npz_bytes, write_atomic
 FILE_FORMAT = "krl-policy"
 FILE_VERSION = 1
 
-SHIPPED_POLICIES: tuple[str, ...] = ("rp", "base")
-"""Agents krl ships, each a seed group ``src/krl/agent/policies/agent-<name>/seed<S>.npz``; ``agent`` alone
-means ``rp``."""
+SHIPPED_POLICIES: tuple[str, ...] = ("rp", "base", "gait")
+"""Agents krl ships, each a seed group ``src/krl/agent/policies/agent-<name>/seed<S>.npz``: the thesis's
+agent-rp and agent-base, and krl's agent-gait (docs/agent-gait.md); ``agent`` alone means ``rp``."""
 
 
 class PolicyFileError(ValueError):

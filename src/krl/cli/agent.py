@@ -84,11 +84,29 @@ def run_run(args: argparse.Namespace) -> int:
 
 
 def run_info(args: argparse.Namespace) -> int:
+    from krl.agent.action import action_parts
     from krl.agent.observation import layout
+    from krl.agent.policy import check_kernel_file
+    from krl.kernel.model import load_kernel
     from krl.task.reward import reward_name
 
     path, policy = _policy(args)
     reward = policy.config.env.reward
+    kernel = load_kernel(check_kernel_file(policy, None, path))
+    action, start = [], 0
+    for part in action_parts(policy.config.residual, kernel):
+        action.append(
+            {
+                "name": part.name,
+                "slice": f"{start}:{start + part.size}",
+                "unit": part.unit,
+                "labels": list(part.labels),
+                "at_minus_1": list(part.low),
+                "at_0": list(part.nominal),
+                "at_plus_1": list(part.high),
+            }
+        )
+        start += part.size
     emit(
         {
             "policy": _shown(path),
@@ -103,6 +121,7 @@ def run_info(args: argparse.Namespace) -> int:
                 {"name": row["name"], "slice": f"{row['start']}:{row['stop']}", "unit": row["unit"]}
                 for row in layout(policy.config.observation.features)
             ],
+            "action": action,
         },
         args.json,
     )
@@ -347,8 +366,8 @@ def register(subparsers) -> None:
         parser.add_argument(
             "--policy",
             default="rp",
-            help="shipped agent (rp, base), a policy file or a seed group; NAME@SEED picks a group's seed "
-            "(default: its first, rp is rp@150)",
+            help="shipped agent (rp, base, gait), a policy file or a seed group; NAME@SEED picks a group's "
+            "seed (default: its first, rp is rp@150)",
         )
 
     p = group.add_parser("run", help="walk the agent to waypoints or at a fixed command")
@@ -384,7 +403,7 @@ def register(subparsers) -> None:
         "--policy",
         action="append",
         required=True,
-        help="[LABEL=]POLICY: a shipped name (rp, base) or a policy file; repeat to compare",
+        help="[LABEL=]POLICY: a shipped name (rp, base, gait) or a policy file; repeat to compare",
     )
     p.add_argument(
         "--course", default="stairs", help="a course on stairs: shipped name or file (default stairs)"
@@ -423,7 +442,8 @@ def register(subparsers) -> None:
         "--policy",
         action="append",
         required=True,
-        help="[LABEL=]POLICY: a shipped name (rp, base), a policy file or a seed group (its seeds); repeat",
+        help="[LABEL=]POLICY: a shipped name (rp, base, gait), a policy file or a seed group (its seeds); "
+        "repeat",
     )
     p.add_argument("--episodes", type=int, default=32, help="episodes per policy file (default 32)")
     p.add_argument(

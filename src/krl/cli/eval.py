@@ -52,10 +52,10 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
         action="append",
         required=True,
         metavar="SPEC",
-        help="expert, expert:stance=0.3, kernel, kernel:ext, kernel:PATH, agent, agent:base, agent:PATH "
-        "(a policy file or a folder of per-seed ones), gait, gait:capture=1,rate=2,ride=0.18 (kernel-ext "
-        "driven by a scripted rule after pushes) (repeatable; one file given several ways, by name, "
-        "path or as a byte-identical copy, runs once, under its first spelling's label)",
+        help="expert, expert:stance=0.3, kernel, kernel:ext, kernel:PATH, agent, agent:base, agent:gait, "
+        "agent:PATH (a policy file or a folder of per-seed ones), gait, gait:capture=1,rate=2,ride=0.18 "
+        "(kernel-ext driven by a scripted rule after pushes) (repeatable; one file given several ways, by "
+        "name, path or as a byte-identical copy, runs once, under its first spelling's label)",
     )
     parser.add_argument(
         "--course",

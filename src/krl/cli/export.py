@@ -35,7 +35,7 @@ def register(subparsers) -> None:
         help="output folder; a kernel-only export refuses one that holds a policy.onnx (delete it first)",
     )
     p.add_argument(
-        "--policy", help="shipped agent (rp, base) or a policy file; its kernel is exported with it"
+        "--policy", help="shipped agent (rp, base, gait) or a policy file; its kernel is exported with it"
     )
     p.add_argument(
         "--kernel", help="shipped kernel (base, ext) or a kernel file (default: the policy's, or base)"
