@@ -333,9 +333,10 @@ def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
         Row(
             "evaluate-gait",
             "agent-gait's tables' runs",
-            # about 35 min per agent seed (push sweep, friction sweep, harder courses), 15 per expert, kernel;
-            # agent-gait's ablation seeds are the chosen variant's files, whose runs krl evaluate makes once
-            ByMode(35 * (len(more) + len(seeds) + len(variants) * len(ablation)) + 30, 5),
+            # about 7 min per agent seed (push sweep, friction sweep, harder courses), 35 for the expert and
+            # the kernel, on both cores (the gait evaluation of 2026-12-05: 1 h 39 min); agent-gait's
+            # ablation seeds are the chosen variant's files, whose runs krl evaluate makes once
+            ByMode(7 * (len(more) + len(seeds) + len(variants) * len(ablation)) + 35, 5),
             (
                 "evaluate --controller agent:{runs}/agent-gait",
                 " ".join(f"--controller agent:{_TRIALS}/{name}-seed*" for name in variants),
