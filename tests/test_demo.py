@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 from krl.cli import main
 
 
@@ -36,3 +38,24 @@ def test_demo_says_there_will_be_no_video_before_the_walks(tmp_path, monkeypatch
     argv = ["demo", "--out", str(tmp_path / "demo"), "--course", str(course), "--workers", "1", "--quiet"]
     assert main(argv) == 0
     assert said == [f"krl demo: no video: {problem}\n"]  # on stderr, one line, before any walk ran
+
+
+def test_demo_walks_the_controllers_given_in_order(tmp_path, monkeypatch, capsys):
+    course = tmp_path / "short.toml"
+    course.write_text(
+        'format = 1\nname = "short"\ndescription = "one waypoint"\ntime_limit = 3.0\nd_min = 0.5\n'
+        'waypoints = [[0.6, 0.0]]\nstarts = [[0.0, 0.0, 0.0]]\n[terrain]\nname = "flat"\nseed = 0\n'
+    )
+    out = tmp_path / "demo"
+    argv = ["demo", "--out", str(out), "--course", str(course), "--controller", "agent:gait"]
+    assert main([*argv, "--controller", "kernel:ext", "--workers", "1", "--no-video", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert [row["controller"] for row in summary["runs"]] == ["agent-gait-seed150", "kernel-ext"]
+
+
+def test_demo_refuses_an_unknown_controller_in_one_line(tmp_path, capsys):
+    argv = ["demo", "--out", str(tmp_path / "demo"), "--controller", "agent:nowhere", "--no-video"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "agent:nowhere" in err
+    assert not (tmp_path / "demo").exists()

@@ -34,6 +34,10 @@ RENDER, WINDOW = "render", "window"
 SMOKE: dict[str, tuple[str, str | None]] = {
     # README command: (options appended to it, what it needs). An empty string: it is small already.
     "krl demo": ("--course mine.toml --workers 1 --quiet", None),  # without rendering: no video, a note
+    "krl demo --controller agent:gait --controller agent --out demo-gait": (
+        "--course mine.toml --workers 1 --quiet",
+        None,
+    ),
     "krl reproduce --quick --dry-run": ("", None),
     "krl export --out onnx/ --policy rp": ("", None),
     "krl terrains": ("", None),

@@ -1,19 +1,31 @@
-"""``krl demo``: the shipped agent, the kernel and the expert on a thesis course (video, path, metrics)."""
+"""``krl demo``: the shipped agent, the kernel and the expert (or the controllers given) on a thesis course
+(video, path, metrics)."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 
-from krl.cli.common import default_of, emit, given
+from krl.cli.common import CliError, default_of, emit, given
 
 
 def run_demo(args: argparse.Namespace) -> int:
     from krl.apps.demo import make_demo
+    from krl.eval.controllers import ControllerSpecError, parse_controller
 
+    for text in args.controller or ():
+        try:
+            parse_controller(text)
+        except ControllerSpecError as error:
+            raise CliError(str(error)) from None
     summary = make_demo(
         args.out,
-        **given(course=args.course, start=args.start, workers=args.workers),
+        **given(
+            course=args.course,
+            start=args.start,
+            workers=args.workers,
+            controllers=tuple(args.controller) if args.controller else None,
+        ),
         video=not args.no_video,
         progress=not args.quiet,
         say=None if args.json else lambda note: print(f"krl demo: {note}", file=sys.stderr, flush=True),
@@ -30,12 +42,19 @@ def run_demo(args: argparse.Namespace) -> int:
 
 
 def register(subparsers) -> None:
-    from krl.apps.demo import make_demo
+    from krl.apps.demo import DEMO_CONTROLLERS, make_demo
 
     p = subparsers.add_parser(
         "demo", help="the shipped agent, the kernel and the expert on a thesis course: video, path, metrics"
     )
     p.add_argument("--out", default="demo", help="output folder (default demo/)")
+    p.add_argument(
+        "--controller",
+        action="append",
+        metavar="SPEC",
+        help="a controller as krl evaluate names it (agent:gait, kernel:ext, ...); repeat; the first is "
+        f"filmed (default: {', '.join(DEMO_CONTROLLERS)})",
+    )
     p.add_argument("--course", help=f"course name or file (default {default_of(make_demo, 'course')})")
     p.add_argument("--start", type=int, help=f"start pose index (default {default_of(make_demo, 'start')})")
     p.add_argument("--workers", type=int, help=f"processes (default {default_of(make_demo, 'workers')})")
