@@ -53,6 +53,23 @@ def test_bench_sim_json(capsys):
     assert set(result["terrains"]) == {"flat", "heightfield"}
 
 
+def test_bench_terrains_compares_each_terrain_with_flat_ground(capsys):
+    argv = ["bench", "terrains", "--terrain", "pyramids", "--steps", "400", "--repeats", "1", "--json"]
+    assert main(argv) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert list(result["terrains"]) == ["flat", "pyramids"]
+    flat, pyramids = result["terrains"].values()
+    assert flat["step_vs_flat"] == 1.0 and flat["contacts"] == 4  # four feet down on flat ground
+    assert pyramids["step_vs_flat"] == pyramids["step_us"] / flat["step_us"]
+    assert all(row[key] > 0 for row in (flat, pyramids) for key in ("add_terrain_ms", "compile_ms"))
+
+
+def test_bench_terrains_names_an_unknown_terrain_in_one_line(capsys):
+    assert main(["bench", "terrains", "--terrain", "moon", "--json"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("krl: error:") and "moon" in err and err.count("\n") == 1
+
+
 def test_terrains_lists_every_terrain(capsys):
     from krl.sim.terrains import TERRAIN_NAMES
 

@@ -85,6 +85,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from krl.bench.sim import bench_sim
 
         result = bench_sim(**given(steps=args.steps, repeats=args.repeats))
+    elif args.target == "terrains":
+        from krl.bench.terrains import bench_terrains
+
+        try:
+            result = bench_terrains(**given(terrains=args.terrain, steps=args.steps, repeats=args.repeats))
+        except ValueError as error:
+            raise CliError(str(error)) from None
     elif args.target == "mpc":
         from krl.bench.mpc import bench_mpc
 
@@ -138,20 +145,28 @@ def register(subparsers) -> None:
     from krl.bench.agent import bench_agent
     from krl.bench.mpc import bench_mpc
     from krl.bench.sim import bench_sim
+    from krl.bench.terrains import bench_terrains
 
     p = subparsers.add_parser("bench", help="run a benchmark and print its figures")
-    p.add_argument("target", choices=["sim", "mpc", "agent"], help="what to benchmark")
+    p.add_argument("target", choices=["sim", "terrains", "mpc", "agent"], help="what to benchmark")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument(
         "--steps",
         type=int,
         help=f"sim, agent: control steps per timed loop (default {default_of(bench_sim, 'steps')} for sim, "
-        f"{default_of(bench_agent, 'steps')} for agent)",
+        f"{default_of(bench_agent, 'steps')} for agent); terrains: physics steps per timed loop (default "
+        f"{default_of(bench_terrains, 'steps')})",
     )
     p.add_argument(
         "--repeats",
         type=int,
-        help=f"sim: alternating timed loops per variant (default {default_of(bench_sim, 'repeats')})",
+        help=f"sim: alternating timed loops per variant (default {default_of(bench_sim, 'repeats')}); "
+        f"terrains: builds and timed loops per terrain (default {default_of(bench_terrains, 'repeats')})",
+    )
+    p.add_argument(
+        "--terrain",
+        action="append",
+        help="terrains: a terrain to measure (repeat; default: every terrain), beside flat ground",
     )
     p.add_argument(
         "--seconds",
