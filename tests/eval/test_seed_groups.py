@@ -99,3 +99,16 @@ def test_the_report_writes_the_seed_rows_beside_the_tables(tmp_path):
     assert str(tmp_path / "out" / "course-stairs-seeds.csv") in written["written"]
     markdown = (tmp_path / "out" / "evaluation.md").read_text()
     assert "By training seed" in markdown and "| agent-rp (Agent-rp) | 4 |" in markdown
+
+
+def test_each_push_line_has_its_own_colour_and_a_thesis_row_its_counterparts():
+    ours = ["agent-rp", "expert-stance0.2", *(f"agent-variant{index}" for index in range(10))]
+    rows = [{"source": "krl", "controller": label} for label in ours]
+    rows += [
+        {"source": "thesis", "controller": name} for name in ("Agent-rp", "MPC (τ_stance=0.2)", "Kernel")
+    ]
+    colours = sweep_report._push_colours(rows)
+    assert len({colours["krl", label] for label in ours}) == len(ours)  # past the default cycle's 10
+    assert colours["thesis", "Agent-rp"] == colours["krl", "agent-rp"]
+    assert colours["thesis", "MPC (τ_stance=0.2)"] == colours["krl", "expert-stance0.2"]
+    assert colours["thesis", "Kernel"] not in {colours["krl", label] for label in ours}  # no kernel-base here

@@ -19,16 +19,8 @@ from krl.eval.evaluate import FRICTION_DIR, PUSH_DIR, load_record
 from krl.eval.summaries import summarise_course, summarise_course_by_seed
 from krl.eval.sweep_report import write_sweep_sections
 from krl.eval.tables import controller_table, rows_csv
-from krl.util.output import figure_bytes, write_atomic
-
-THESIS_NAMES = {
-    "expert-stance0.3": "MPC (τ_stance=0.3)",
-    "expert-stance0.2": "MPC (τ_stance=0.2)",
-    "kernel-base": "Kernel",
-    "agent-base": "Agent-base",
-    "agent-rp": "Agent-rp",
-}
-"""Our controller labels -> the thesis's row names."""
+from krl.util.output import distinct_colours, figure_bytes, write_atomic
+from krl.util.thesis import THESIS_NAMES
 
 TABLE_NUMBERS = {"tabletop": "5.1", "seesaw": "5.2", "stairs": "5.3", "sinusoid": "5.4"}
 
@@ -179,6 +171,7 @@ def _plot_courses(path: Path, tables: dict[str, list[dict[str, Any]]]) -> None:
 
     courses = list(tables)
     labels = sorted({row["controller"] for rows in tables.values() for row in rows if row["source"] == "krl"})
+    colours = distinct_colours(len(labels))
     fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
     width = 0.8 / max(len(labels), 1)
     x = np.arange(len(courses))
@@ -188,7 +181,8 @@ def _plot_courses(path: Path, tables: dict[str, list[dict[str, Any]]]) -> None:
                 next((r[key] for r in tables[c] if r["source"] == "krl" and r["controller"] == label), np.nan)
                 for c in courses
             ]
-            axis.bar(x + (index - (len(labels) - 1) / 2) * width, values, width, label=label)
+            offset = (index - (len(labels) - 1) / 2) * width
+            axis.bar(x + offset, values, width, label=label, color=colours[index])
         axis.set_xticks(x, courses)
         axis.set_title(title)
         axis.set_ylim(0, 1.05)

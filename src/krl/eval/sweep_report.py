@@ -21,8 +21,8 @@ from krl.eval.summaries import (
     summarise_push_directions,
 )
 from krl.eval.tables import controller_table, rows_csv
-from krl.util.output import figure_bytes, write_atomic
-from krl.util.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
+from krl.util.output import distinct_colours, figure_bytes, write_atomic
+from krl.util.thesis import THESIS_NAMES, THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
 
 THESIS_PUSH: dict[str, tuple[float, ...]] = {  # Table 5.5, success rate at 250, 300, ..., 900 N
     "MPC (τ_stance=0.2)": (1, 0.8, 0.9, 0.7, 0.5, 0.3, 0.4, 0.2, 0.4, 0.1, 0.2, 0, 0, 0),
@@ -192,6 +192,7 @@ def plot_push(path: Path, rows: list[dict[str, Any]]) -> None:
     import matplotlib.pyplot as plt
 
     fig, axis = plt.subplots(figsize=(7, 4))
+    colours = _push_colours(rows)
     for source, style in (("krl", "-o"), ("thesis", "--x")):
         for controller in dict.fromkeys(r["controller"] for r in rows if r["source"] == source):
             mine = sorted(
@@ -209,6 +210,7 @@ def plot_push(path: Path, rows: list[dict[str, Any]]) -> None:
                 style,
                 label=f"{controller} ({source})",
                 alpha=0.9,
+                color=colours[source, controller],
             )
             if source == "krl":
                 low, high = [r["success_low"] for r in mine], [r["success_high"] for r in mine]
@@ -222,6 +224,20 @@ def plot_push(path: Path, rows: list[dict[str, Any]]) -> None:
     plt.close(fig)
 
 
+def _push_colours(rows: list[dict[str, Any]]) -> dict[tuple[str, str], Any]:
+    """A colour per (source, controller) of the push rows: every one of ours its own, and a thesis row the
+    colour of ours that is the same controller (:data:`THESIS_NAMES`; dashed beside solid), else its own."""
+    ours = list(dict.fromkeys(r["controller"] for r in rows if r["source"] == "krl"))
+    named = {THESIS_NAMES[label]: label for label in ours if label in THESIS_NAMES}
+    theirs = list(dict.fromkeys(r["controller"] for r in rows if r["source"] == "thesis"))
+    alone = [name for name in theirs if name not in named]
+    palette = distinct_colours(len(ours) + len(alone))
+    colours = {("krl", label): palette[index] for index, label in enumerate(ours)}
+    colours.update({("thesis", name): colours["krl", label] for name, label in named.items()})
+    colours.update({("thesis", name): palette[len(ours) + index] for index, name in enumerate(alone)})
+    return colours
+
+
 def plot_friction(path: Path, rows: list[dict[str, Any]]) -> None:
     """Success rate against ground friction μ, one panel per course, one line per controller (pooled over a
     seed group's seeds), its 95 % Wilson interval shaded."""
@@ -231,13 +247,16 @@ def plot_friction(path: Path, rows: list[dict[str, Any]]) -> None:
     import matplotlib.pyplot as plt
 
     courses = list(dict.fromkeys(r["course"] for r in rows))
+    controllers = list(dict.fromkeys(r["controller"] for r in rows))
+    colours = dict(zip(controllers, distinct_colours(len(controllers)), strict=True))
     fig, axes = plt.subplots(1, len(courses), figsize=(5 * len(courses), 3.8), sharey=True, squeeze=False)
     for axis, course in zip(axes[0], courses, strict=True):
         pooled = [r for r in rows if r["course"] == course and "seed" not in r]
         for controller in dict.fromkeys(r["controller"] for r in pooled):
             mine = sorted((r for r in pooled if r["controller"] == controller), key=lambda r: r["friction"])
             frictions = [r["friction"] for r in mine]
-            (line,) = axis.plot(frictions, [r["success_rate"] for r in mine], "-o", label=controller)
+            rates, colour = [r["success_rate"] for r in mine], colours[controller]
+            (line,) = axis.plot(frictions, rates, "-o", label=controller, color=colour)
             low, high = [r["success_low"] for r in mine], [r["success_high"] for r in mine]
             axis.fill_between(frictions, low, high, color=line.get_color(), alpha=0.12, linewidth=0)
         axis.set_title(f"course {course}")

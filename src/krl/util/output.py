@@ -97,3 +97,13 @@ def figure_bytes(fig) -> bytes:
     out = io.BytesIO()
     palette.save(out, format="PNG", optimize=True)
     return out.getvalue()
+
+
+def distinct_colours(count: int) -> list[tuple[float, float, float]]:
+    """``count`` RGB colours, one per line or bar group of a figure, that do not repeat up to 20:
+    Matplotlib's ``tab10`` up to 10 (its default cycle, which starts over after 10), ``tab20`` up to 20,
+    cycled beyond."""
+    import matplotlib
+
+    palette = matplotlib.colormaps["tab10" if count <= 10 else "tab20"].colors
+    return [palette[index % len(palette)] for index in range(count)]

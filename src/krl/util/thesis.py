@@ -17,4 +17,19 @@ THESIS_PUSH_ATTEMPTS: int = 10
 """Attempts per push magnitude in Table 5.5 (Section 5.3: "For each magnitude of force applied, we run 10
 attempts")."""
 
-__all__ = ["COMPARISON_EPOCHS", "THESIS_PUSH_ATTEMPTS", "THESIS_PUSH_MAGNITUDES", "THESIS_SEEDS"]
+THESIS_NAMES: dict[str, str] = {
+    "expert-stance0.3": "MPC (τ_stance=0.3)",
+    "expert-stance0.2": "MPC (τ_stance=0.2)",
+    "kernel-base": "Kernel",
+    "agent-base": "Agent-base",
+    "agent-rp": "Agent-rp",
+}
+"""krl's controller labels -> the thesis's names of the same controllers (the rows of Tables 5.1-5.5)."""
+
+__all__ = [
+    "COMPARISON_EPOCHS",
+    "THESIS_NAMES",
+    "THESIS_PUSH_ATTEMPTS",
+    "THESIS_PUSH_MAGNITUDES",
+    "THESIS_SEEDS",
+]

@@ -28,7 +28,7 @@ from krl.agent.studies.runner import (
     pruner,
     pruner_rule,
 )
-from krl.util.output import csv_bytes, figure_bytes, write_atomic
+from krl.util.output import csv_bytes, distinct_colours, figure_bytes, write_atomic
 
 THESIS_FINDINGS: dict[str, str] = {
     "ppo-search": "100 random trials of 3e6 steps, the best 5 trained from 4 seeds for 5e6 steps (Fig. 4.17, "
@@ -264,13 +264,12 @@ def _figure(path: Path, curves: dict[str, dict[str, np.ndarray]], title: str) ->
     import matplotlib.pyplot as plt
 
     panels = [label for label in CURVE_SERIES if any(label in curve for curve in curves.values())]
-    # one colour per group: the default cycle repeats after 10, tab20 after 20
-    palette = plt.get_cmap("tab10" if len(curves) <= 10 else "tab20").colors
+    palette = distinct_colours(len(curves))
     fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 3.6), squeeze=False)
     for ax, label in zip(axes[0], panels, strict=True):
         for index, (name, curve) in enumerate(curves.items()):
             if label in curve:
-                values, x, colour = curve[label], curve["steps"] / 1e6, palette[index % len(palette)]
+                values, x, colour = curve[label], curve["steps"] / 1e6, palette[index]
                 ax.plot(x, values.mean(axis=0), label=f"{name} ({len(values)})", linewidth=1.2, color=colour)
                 ax.fill_between(
                     x,
