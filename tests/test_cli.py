@@ -64,10 +64,11 @@ def test_bench_terrains_compares_each_terrain_with_flat_ground(capsys):
     assert all(row[key] > 0 for row in (flat, pyramids) for key in ("add_terrain_ms", "compile_ms"))
 
 
-def test_bench_terrains_names_an_unknown_terrain_in_one_line(capsys):
-    assert main(["bench", "terrains", "--terrain", "moon", "--json"]) == 2
+@pytest.mark.parametrize("bad, named", [(["--terrain", "moon"], "moon"), (["--steps", "0"], "step")])
+def test_bench_terrains_refuses_bad_input_in_one_line(bad, named, capsys):
+    assert main(["bench", "terrains", *bad, "--json"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("krl: error:") and "moon" in err and err.count("\n") == 1
+    assert err.startswith("krl: error:") and named in err and err.count("\n") == 1
 
 
 def test_terrains_lists_every_terrain(capsys):

@@ -65,7 +65,9 @@ def bench_terrains(
     terrains: Sequence[str] = TERRAIN_NAMES, steps: int = 2000, repeats: int = 7
 ) -> dict[str, object]:
     """:func:`bench_one_terrain` on each of ``terrains`` (and on flat ground, the baseline); raises
-    ValueError for a name that is not a terrain."""
+    ValueError for a name that is not a terrain or fewer than one step or repeat."""
+    if steps < 1 or repeats < 1:
+        raise ValueError(f"bench terrains needs at least one step and one repeat, not {steps} and {repeats}")
     unknown = [name for name in terrains if name not in TERRAIN_NAMES]
     if unknown:
         raise ValueError(f"unknown terrain {unknown[0]!r}; known: {', '.join(TERRAIN_NAMES)}")
