@@ -30,7 +30,7 @@ from krl.kernel.model import Kernel
 from krl.kernel.settings import training_settings
 from krl.robots.a1.constants import LEG_NAMES
 
-__all__ = ["DRIVE_PARTS", "ActionPart", "action_parts"]
+__all__ = ["DRIVE_PARTS", "ActionPart", "action_parts", "describe_parts"]
 
 COMMAND_LABELS: tuple[str, ...] = ("v_x", "v_y", "yaw_rate")
 """The names of a velocity command's numbers (m/s, m/s, rad/s)."""
@@ -152,3 +152,26 @@ def action_parts(config: ResidualConfig, kernel: Kernel) -> tuple[ActionPart, ..
             )
         )
     return tuple(parts)
+
+
+def describe_parts(config: ResidualConfig, kernel: Kernel) -> list[dict[str, object]]:
+    """The parts of ``config``'s action for ``kernel`` as plain data, in action order: name, ``start`` and
+    ``stop`` (the part's slice of the action), unit, meaning, the values at action -1, 0 and +1, and each
+    number's label (what ``krl export``'s contract and ``krl agent info`` show)."""
+    described, start = [], 0
+    for part in action_parts(config, kernel):
+        described.append(
+            {
+                "name": part.name,
+                "start": start,
+                "stop": start + part.size,
+                "unit": part.unit,
+                "meaning": part.description,
+                "at_minus_1": list(part.low),
+                "at_0": list(part.nominal),
+                "at_plus_1": list(part.high),
+                "labels": list(part.labels),
+            }
+        )
+        start += part.size
+    return described

@@ -181,24 +181,12 @@ def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = 
 
 def _action_contract(residual, kernel) -> dict[str, Any]:
     """The action's size, bounds and parts (:mod:`krl.agent.action`) for the contract."""
-    from krl.agent.action import action_parts
+    from krl.agent.action import describe_parts
 
-    parts, start = [], 0
-    for part in action_parts(residual, kernel):
-        entry = {
-            "name": part.name,
-            "start": start,
-            "stop": start + part.size,
-            "unit": part.unit,
-            "meaning": part.description,
-            "at_minus_1": list(part.low),
-            "at_0": list(part.nominal),
-            "at_plus_1": list(part.high),
-            "labels": list(part.labels),
-            "filter_alpha": residual.alpha if part.name == "residual" else residual.gait_alpha,
-        }
-        parts.append(entry)
-        start += part.size
+    parts = [
+        {**part, "filter_alpha": residual.alpha if part["name"] == "residual" else residual.gait_alpha}
+        for part in describe_parts(residual, kernel)
+    ]
     action: dict[str, Any] = {"size": residual.action_size, "bounds": [-1.0, 1.0], "parts": parts}
     if residual.residuals:
         action["residual_bound_m"] = list(residual.residual_bound)

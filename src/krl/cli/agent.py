@@ -84,7 +84,7 @@ def run_run(args: argparse.Namespace) -> int:
 
 
 def run_info(args: argparse.Namespace) -> int:
-    from krl.agent.action import action_parts
+    from krl.agent.action import describe_parts
     from krl.agent.observation import layout
     from krl.agent.policy import check_kernel_file
     from krl.kernel.model import load_kernel
@@ -93,20 +93,10 @@ def run_info(args: argparse.Namespace) -> int:
     path, policy = _policy(args)
     reward = policy.config.env.reward
     kernel = load_kernel(check_kernel_file(policy, None, path))
-    action, start = [], 0
-    for part in action_parts(policy.config.residual, kernel):
-        action.append(
-            {
-                "name": part.name,
-                "slice": f"{start}:{start + part.size}",
-                "unit": part.unit,
-                "labels": list(part.labels),
-                "at_minus_1": list(part.low),
-                "at_0": list(part.nominal),
-                "at_plus_1": list(part.high),
-            }
-        )
-        start += part.size
+    action = [
+        {"name": part.pop("name"), "slice": f"{part.pop('start')}:{part.pop('stop')}", **part}
+        for part in describe_parts(policy.config.residual, kernel)
+    ]
     emit(
         {
             "policy": _shown(path),
