@@ -65,12 +65,16 @@ def run_demo_walk(run: DemoRun) -> dict[str, Any]:
     return {"label": run.spec.driven_label, "metrics": metrics, "path": np.array(trace).tolist()}
 
 
-def available_controllers(names: tuple[str, ...] = DEMO_CONTROLLERS) -> tuple[list[Any], list[str]]:
-    """The specs of ``names`` that can be built here, and one note per one that cannot (no shipped agent)."""
+def available_controllers(names: tuple[str, ...] | None = None) -> tuple[list[Any], list[str]]:
+    """The specs of ``names`` (a :class:`~krl.eval.controllers.ControllerSpecError` for one that cannot be
+    built), or of :data:`DEMO_CONTROLLERS` when None: those that can be built here, and one note per one
+    that cannot (no shipped agent)."""
     from krl.eval.controllers import ControllerSpecError, parse_controller
 
+    if names is not None:
+        return [parse_controller(name) for name in names], []
     specs, notes = [], []
-    for name in names:
+    for name in DEMO_CONTROLLERS:
         try:
             specs.append(parse_controller(name))
         except ControllerSpecError as error:
@@ -84,14 +88,16 @@ def make_demo(
     out: str | Path,
     course: str = "stairs",
     start: int = 0,
-    controllers: tuple[str, ...] = DEMO_CONTROLLERS,
+    controllers: tuple[str, ...] | None = None,
     video: bool = True,
     workers: int = 2,
     progress: bool = True,
     say: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
-    """Run the demo (module docstring); returns the summary printed by ``krl demo``. ``say(note)`` hears
-    each note (a skipped controller, no video) before the walks start, which take minutes."""
+    """Run the demo (module docstring); returns the summary printed by ``krl demo``. ``controllers``
+    (``krl evaluate`` specs, the first filmed) must all build, else ValueError before anything is written;
+    None runs those of :data:`DEMO_CONTROLLERS` that build here. ``say(note)`` hears each note (a skipped
+    controller, no video) before the walks start, which take minutes."""
     from krl.eval.courses import load_course
     from krl.util.parallel import run_jobs
 

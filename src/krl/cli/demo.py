@@ -6,18 +6,12 @@ from __future__ import annotations
 import argparse
 import sys
 
-from krl.cli.common import CliError, default_of, emit, given
+from krl.cli.common import default_of, emit, given
 
 
 def run_demo(args: argparse.Namespace) -> int:
     from krl.apps.demo import make_demo
-    from krl.eval.controllers import ControllerSpecError, parse_controller
 
-    for text in args.controller or ():
-        try:
-            parse_controller(text)
-        except ControllerSpecError as error:
-            raise CliError(str(error)) from None
     summary = make_demo(
         args.out,
         **given(
