@@ -280,18 +280,23 @@ _TRIALS = f"{_ABLATION}/trials/list"
 """Where the gait ablation's run folders are (``VARIANT-seedS``)."""
 
 
+def _gait_study_config() -> ByMode[dict[str, Any]]:
+    """The ``--config`` of both gait studies: the pipeline's kernel-ext in place of the shipped one, and for
+    ``--quick`` the quick agent's settings with episodes short enough to end in a run, as a study's must."""
+    kernel = {"residual": {"kernel": "{runs}/kernel-ext/kernel.npz"}}
+    quick = {key: value for key, value in _QUICK_AGENT.items() if key != "total_steps"}
+    quick["env"] = {"episode_time": _QUICK_GAIT_EPISODE}
+    return ByMode(kernel, {**kernel, **quick})
+
+
 def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
     """agent-gait as ``examples/gait/agent-gait.sh`` makes it (docs/agent-gait.md): the ablation on the
-    pipeline's kernel-ext, the choice on held-out episodes, the chosen recipe's other seeds, then every
-    variant and the baselines on the thesis's and the harder courses, the push and the friction sweeps."""
+    pipeline's kernel-ext, the choice on held-out episodes, the chosen recipe's other seeds."""
     from krl.agent.studies.designs import GAIT_DRIVES
 
     variants = [name for name, *_ in GAIT_DRIVES]
     driving = [name for name, _, drives, _ in GAIT_DRIVES if drives]  # agent-gait's candidates
     ablation, more = seeds[:GAIT_ABLATION_SEEDS], seeds[GAIT_ABLATION_SEEDS:]
-    kernel = {"residual": {"kernel": "{runs}/kernel-ext/kernel.npz"}}
-    quick = {key: value for key, value in _QUICK_AGENT.items() if key != "total_steps"}
-    quick["env"] = {"episode_time": _QUICK_GAIT_EPISODE}  # a study's run must end episodes
     policies = " ".join(f"--policy {name}={_TRIALS}/{name}-seed*" for name in variants)
     chosen = "{runs}/heldout-gait/chosen-config.json"
     return (
@@ -305,7 +310,7 @@ def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
                 ByMode("", f"--budget {_QUICK_GAIT_BUDGET}"),
                 "--quiet",
             ),
-            config=ByMode(kernel, {**kernel, **quick}),
+            config=_gait_study_config(),
         ),
         Row(
             "heldout-gait",
@@ -330,16 +335,92 @@ def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
             )
             for seed in more
         ),
+    )
+
+
+_GROUND = "{runs}/agent-studies/gait-ground"
+"""The ground study's folder."""
+_GROUND_TRIALS = f"{_GROUND}/trials/list"
+"""Where the ground study's run folders are (``VARIANT-seedS``)."""
+
+
+def _ground_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
+    """agent-gait-ground as ``examples/gait/agent-gait-ground.sh`` makes it (docs/agent-gait.md): the ground
+    study on the pipeline's kernel-ext from the ablation's seeds, the rule written before its runs on
+    held-out episodes (the choice must stand against agent-gait's recipe), the chosen recipe's other seeds.
+    Where the choice does not stand (``RUNS/heldout-ground/verdict.json``) there is no chosen config and
+    the next step stops the pipeline: nothing ships from the study then."""
+    from krl.agent.studies.designs import GAIT_GROUND_RECIPE, STUDIES
+
+    variants = [variant.name for variant in STUDIES["gait-ground"].variants]
+    broad = variants[-1]  # pyramids-pushes: pyramids and the stronger pushes, the broadest ground
+    ablation, more = seeds[:GAIT_ABLATION_SEEDS], seeds[GAIT_ABLATION_SEEDS:]
+    policies = " ".join(f"--policy {name}={_GROUND_TRIALS}/{name}-seed*" for name in variants)
+    return (
+        Row(
+            "gait-ground",
+            "the ground study's runs",
+            # each pair of 2e7-step runs at once took 2 h 3 min - 2 h 7 min (2026-12-05)
+            ByMode(63 * len(variants) * len(ablation), 2.5),
+            (
+                f"agent study gait-ground --out {_GROUND}",
+                f"--seeds {','.join(map(str, ablation))} --jobs 2 --config {{config}}",
+                ByMode("", f"--budget {_QUICK_GAIT_BUDGET}"),
+                "--quiet",
+            ),
+            config=_gait_study_config(),
+        ),
+        Row(
+            "heldout-ground",
+            "agent-gait-ground chosen on held-out episodes",
+            ByMode(18, 2),
+            (
+                f"agent heldout --policy agent-gait={_TRIALS}/{GAIT_GROUND_RECIPE}-seed* {policies}",
+                f"--env {_GROUND_TRIALS}/{broad}-seed{{seed}}/config.json --choose {','.join(variants)}",
+                "--baseline agent-gait",
+                f"--baseline-env {_TRIALS}/{GAIT_GROUND_RECIPE}-seed{{seed}}/config.json",
+                ByMode("--episodes 32", "--episodes 2"),
+                "--out {runs}/heldout-ground --seed-group {runs}/agent-gait-ground --quiet",
+            ),
+        ),
+        *(
+            Row(
+                f"agent-gait-ground-seed{seed}",
+                f"agent-gait-ground (seed {seed})",
+                120,
+                (
+                    f"agent train --out {{runs}}/agent-gait-ground/seed{seed} --seed {seed}",
+                    "--config {runs}/heldout-ground/chosen-config.json --quiet",
+                ),
+            )
+            for seed in more
+        ),
+    )
+
+
+def _gait_scoring_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
+    """Every gait variant, the seed groups and the baselines on the thesis's and the harder courses, the
+    push and the friction sweeps, and their report."""
+    from krl.agent.studies.designs import GAIT_DRIVES, STUDIES
+
+    variants = [name for name, *_ in GAIT_DRIVES]
+    ground = [variant.name for variant in STUDIES["gait-ground"].variants]
+    ablation, more = seeds[:GAIT_ABLATION_SEEDS], seeds[GAIT_ABLATION_SEEDS:]
+    # the seed group agent-gait-ground exists where the ground study's choice stood; --quick's runs are too
+    # short for that, so it scores the study's runs only
+    return (
         Row(
             "evaluate-gait",
             "agent-gait's tables' runs",
             # about 7 min per agent seed (push sweep, friction sweep, harder courses), 35 for the expert and
-            # the kernel, on both cores (the gait evaluation of 2026-12-05: 1 h 39 min); agent-gait's
-            # ablation seeds are the chosen variant's files, whose runs krl evaluate makes once
-            ByMode(7 * (len(more) + len(seeds) + len(variants) * len(ablation)) + 35, 5),
+            # the kernel, on both cores (the gait evaluation of 2026-12-05: 1 h 39 min); the chosen
+            # variants' seeds are the seed groups' files, whose runs krl evaluate makes once
+            ByMode(7 * (2 * len(more) + len(seeds) + (len(variants) + len(ground)) * len(ablation)) + 35, 6),
             (
                 "evaluate --controller agent:{runs}/agent-gait",
+                ByMode("--controller agent:{runs}/agent-gait-ground", ""),
                 " ".join(f"--controller agent:{_TRIALS}/{name}-seed*" for name in variants),
+                " ".join(f"--controller agent:{_GROUND_TRIALS}/{name}-seed*" for name in ground),
                 "--controller agent:{runs}/agent-rp --controller expert --controller kernel:{kernel}",
                 ByMode(
                     "--course thesis --course harder --push-sweep --attempts 50 --friction-sweep",
@@ -360,6 +441,8 @@ def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
 
 def pipeline(seeds: Sequence[int]) -> tuple[Row, ...]:
     """Every step, in order (expert data -> kernels -> studies, figures -> agents of each seed ->
-    evaluation -> report -> agent-gait) for the training ``seeds``."""
+    evaluation -> report -> agent-gait -> agent-gait-ground -> their evaluation and report) for the
+    training ``seeds``."""
     agents = tuple(_agent_row(agent, seed) for agent in AGENTS for seed in seeds)
-    return (*DATA_AND_KERNELS, *agents, *_scoring_rows(seeds), *_gait_rows(seeds))
+    gait = (*_gait_rows(seeds), *_ground_rows(seeds), *_gait_scoring_rows(seeds))
+    return (*DATA_AND_KERNELS, *agents, *_scoring_rows(seeds), *gait)
