@@ -280,13 +280,42 @@ _TRIALS = f"{_ABLATION}/trials/list"
 """Where the gait ablation's run folders are (``VARIANT-seedS``)."""
 
 
-def _gait_study_config() -> ByMode[dict[str, Any]]:
-    """The ``--config`` of both gait studies: the pipeline's kernel-ext in place of the shipped one, and for
-    ``--quick`` the quick agent's settings with episodes short enough to end in a run, as a study's must."""
+def _gait_study_row(study: str, makes: str, minutes: ByMode[float], seeds: Sequence[int]) -> Row:
+    """``krl agent study STUDY`` (a gait study) from ``seeds`` into ``RUNS/agent-studies/STUDY``, on the
+    pipeline's kernel-ext in place of the shipped one; ``--quick`` with the quick agent's settings and
+    episodes short enough to end in a run, as a study's must."""
     kernel = {"residual": {"kernel": "{runs}/kernel-ext/kernel.npz"}}
     quick = {key: value for key, value in _QUICK_AGENT.items() if key != "total_steps"}
     quick["env"] = {"episode_time": _QUICK_GAIT_EPISODE}
-    return ByMode(kernel, {**kernel, **quick})
+    return Row(
+        study,
+        makes,
+        minutes,
+        (
+            f"agent study {study} --out {{runs}}/agent-studies/{study}",
+            f"--seeds {','.join(map(str, seeds))} --jobs 2 --config {{config}}",
+            ByMode("", f"--budget {_QUICK_GAIT_BUDGET}"),
+            "--quiet",
+        ),
+        config=ByMode(kernel, {**kernel, **quick}),
+    )
+
+
+def _chosen_seed_rows(group: str, heldout: str, seeds: Sequence[int]) -> tuple[Row, ...]:
+    """The trainings of seed group ``group``'s other ``seeds`` into ``RUNS/<group>/seed<S>``, from the
+    recipe the held-out choice in ``RUNS/<heldout>`` wrote (``chosen-config.json``)."""
+    return tuple(
+        Row(
+            f"{group}-seed{seed}",
+            f"{group} (seed {seed})",
+            120,
+            (
+                f"agent train --out {{runs}}/{group}/seed{seed} --seed {seed}",
+                f"--config {{runs}}/{heldout}/chosen-config.json --quiet",
+            ),
+        )
+        for seed in seeds
+    )
 
 
 def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
@@ -298,19 +327,12 @@ def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
     driving = [name for name, _, drives, _ in GAIT_DRIVES if drives]  # agent-gait's candidates
     ablation, more = seeds[:GAIT_ABLATION_SEEDS], seeds[GAIT_ABLATION_SEEDS:]
     policies = " ".join(f"--policy {name}={_TRIALS}/{name}-seed*" for name in variants)
-    chosen = "{runs}/heldout-gait/chosen-config.json"
     return (
-        Row(
+        _gait_study_row(
             "gait-ablation",
             "the gait ablation's runs",
             ByMode(66 * len(variants) * len(ablation), 6),
-            (
-                f"agent study gait-ablation --out {_ABLATION}",
-                f"--seeds {','.join(map(str, ablation))} --jobs 2 --config {{config}}",
-                ByMode("", f"--budget {_QUICK_GAIT_BUDGET}"),
-                "--quiet",
-            ),
-            config=_gait_study_config(),
+            ablation,
         ),
         Row(
             "heldout-gait",
@@ -323,18 +345,7 @@ def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
                 "--seed-group {runs}/agent-gait --quiet",
             ),
         ),
-        *(
-            Row(
-                f"agent-gait-seed{seed}",
-                f"agent-gait (seed {seed})",
-                120,
-                (
-                    f"agent train --out {{runs}}/agent-gait/seed{seed} --seed {seed} --config {chosen}",
-                    "--quiet",
-                ),
-            )
-            for seed in more
-        ),
+        *_chosen_seed_rows("agent-gait", "heldout-gait", more),
     )
 
 
@@ -348,7 +359,7 @@ def _ground_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
     """agent-gait-ground as ``examples/gait/agent-gait-ground.sh`` makes it (docs/agent-gait.md): the ground
     study on the pipeline's kernel-ext from the ablation's seeds, the rule written before its runs on
     held-out episodes (the choice must stand against agent-gait's recipe), the chosen recipe's other seeds.
-    Where the choice does not stand (``RUNS/heldout-ground/verdict.json``) there is no chosen config and
+    Where the choice does not stand (``RUNS/heldout-ground/choice.json``) there is no chosen config and
     the next step stops the pipeline: nothing ships from the study then."""
     from krl.agent.studies.designs import GAIT_GROUND_RECIPE, STUDIES
 
@@ -357,18 +368,12 @@ def _ground_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
     ablation, more = seeds[:GAIT_ABLATION_SEEDS], seeds[GAIT_ABLATION_SEEDS:]
     policies = " ".join(f"--policy {name}={_GROUND_TRIALS}/{name}-seed*" for name in variants)
     return (
-        Row(
+        # each pair of 2e7-step runs at once took 2 h 3 min - 2 h 7 min (2026-12-05)
+        _gait_study_row(
             "gait-ground",
             "the ground study's runs",
-            # each pair of 2e7-step runs at once took 2 h 3 min - 2 h 7 min (2026-12-05)
             ByMode(63 * len(variants) * len(ablation), 2.5),
-            (
-                f"agent study gait-ground --out {_GROUND}",
-                f"--seeds {','.join(map(str, ablation))} --jobs 2 --config {{config}}",
-                ByMode("", f"--budget {_QUICK_GAIT_BUDGET}"),
-                "--quiet",
-            ),
-            config=_gait_study_config(),
+            ablation,
         ),
         Row(
             "heldout-ground",
@@ -383,18 +388,7 @@ def _ground_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
                 "--out {runs}/heldout-ground --seed-group {runs}/agent-gait-ground --quiet",
             ),
         ),
-        *(
-            Row(
-                f"agent-gait-ground-seed{seed}",
-                f"agent-gait-ground (seed {seed})",
-                120,
-                (
-                    f"agent train --out {{runs}}/agent-gait-ground/seed{seed} --seed {seed}",
-                    "--config {runs}/heldout-ground/chosen-config.json --quiet",
-                ),
-            )
-            for seed in more
-        ),
+        *_chosen_seed_rows("agent-gait-ground", "heldout-ground", more),
     )
 
 
