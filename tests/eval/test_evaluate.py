@@ -363,13 +363,13 @@ def test_push_table_shows_the_attempts_and_intervals():
 def test_push_directions_are_quarters_around_the_walk():
     from krl.eval import sweep_report
 
-    def record(azimuth_deg, success, target=(3.0, 0.0)):
+    def record(azimuth_deg, success, target=(3.0, 0.0), magnitude=400.0):
         azimuth = np.radians(azimuth_deg)
         metrics = {
             "success": success,
-            "push": {"force": [400 * np.cos(azimuth), 400 * np.sin(azimuth), 50.0]},
+            "push": {"force": [magnitude * np.cos(azimuth), magnitude * np.sin(azimuth), 50.0]},
         }
-        return {"sweep": {"target": list(target)}, "metrics": metrics}
+        return {"sweep": {"target": list(target)}, "magnitude": magnitude, "metrics": metrics}
 
     assert [summaries.push_direction(record(a, True)) for a in (10, 80, -170, -100, 44, 46)] == [
         "forward", "left", "backward", "right", "forward", "left",
@@ -385,7 +385,11 @@ def test_push_directions_are_quarters_around_the_walk():
     assert set(rows) == {"forward", "left", "right"}  # no backward push: no row
     assert rows["forward"]["attempts"] == 2 and rows["forward"]["success_rate"] == 0.5
     assert rows["left"]["success_high"] < 1.0 and rows["right"]["success_low"] > 0.0
-    table = sweep_report.push_direction_markdown(
-        sweep_report.push_direction_rows({"x": {evaluate.PUSH_DIR: records}})
+    by_band = sweep_report.push_direction_rows(
+        {"x": {evaluate.PUSH_DIR: [*records, record(90, True, magnitude=700)]}}
     )
-    assert "| x | 0.50 (2), " in table and "| – |" in table
+    left = {row["forces"]: row for row in by_band if row["direction"] == "left"}
+    assert (left["all"]["attempts"], left["all"]["success_rate"]) == (2, 0.5)
+    assert (left["350-600"]["attempts"], left["350-600"]["success_rate"]) == (1, 0.0)  # not the 700 N push
+    table = sweep_report.push_direction_markdown(by_band)
+    assert "| x | 0.50 (2), " in table and "| – |" in table and "Forces 350-600 N:" in table

@@ -58,14 +58,32 @@ def push_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[st
     return rows
 
 
+PUSH_FORCE_BANDS: tuple[tuple[float, float] | None, ...] = (None, (350.0, 600.0))
+"""The forces [N] push success by direction is summarised over: all of the sweep's (None), and 350-600 N,
+where lateral pushes fail most and issue #25 sets its lateral target (docs/agent-gait.md)."""
+
+
+def _band_name(band: tuple[float, float] | None) -> str:
+    """``"all"`` or ``"350-600"``: a force band of :data:`PUSH_FORCE_BANDS` in newtons."""
+    return "all" if band is None else f"{band[0]:g}-{band[1]:g}"
+
+
 def push_direction_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
-    """One row per (controller, push direction) of ours, over all magnitudes (the thesis has none)."""
-    return [
-        {"controller": label, **row}
-        for label, groups in found.items()
-        if PUSH_DIR in groups
-        for row in summarise_push_directions(groups[PUSH_DIR])
-    ]
+    """One row per (force band of :data:`PUSH_FORCE_BANDS`, controller, push direction) of ours (the
+    thesis has none), ``forces`` naming the band (:func:`_band_name`)."""
+    rows = []
+    for band in PUSH_FORCE_BANDS:
+        for label, groups in found.items():
+            records = [
+                record
+                for record in groups.get(PUSH_DIR, [])
+                if band is None or band[0] <= record["magnitude"] <= band[1]
+            ]
+            rows += [
+                {"controller": label, "forces": _band_name(band), **row}
+                for row in summarise_push_directions(records)
+            ]
+    return rows
 
 
 def friction_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
@@ -135,22 +153,30 @@ def push_markdown(rows: list[dict[str, Any]]) -> str:
 
 
 def push_direction_markdown(rows: list[dict[str, Any]]) -> str:
+    """One table per force band of :data:`PUSH_FORCE_BANDS`: a row per controller, a column per direction."""
     lines = [
-        "### Push success by direction (all magnitudes)",
+        "### Push success by direction",
         "",
         "The force's horizontal direction relative to the walk (origin to target), in quarters of 90°; "
-        "success rate (attempts) and 95 % Wilson interval.",
-        "",
-        *controller_table(
-            rows,
-            "direction",
-            PUSH_DIRECTIONS,
-            PUSH_DIRECTIONS,
-            lambda r: (
-                f"{r['success_rate']:.2f} ({r['attempts']}), {r['success_low']:.2f}-{r['success_high']:.2f}"
-            ),
-        ),
+        "success rate (attempts) and 95 % Wilson interval; over every force of the sweep, then over "
+        "350-600 N.",
     ]
+    for band in dict.fromkeys(row["forces"] for row in rows):
+        lines += [
+            "",
+            "All forces:" if band == "all" else f"Forces {band} N:",
+            "",
+            *controller_table(
+                [row for row in rows if row["forces"] == band],
+                "direction",
+                PUSH_DIRECTIONS,
+                PUSH_DIRECTIONS,
+                lambda r: (
+                    f"{r['success_rate']:.2f} ({r['attempts']}), "
+                    f"{r['success_low']:.2f}-{r['success_high']:.2f}"
+                ),
+            ),
+        ]
     return "\n".join(lines) + "\n"
 
 
