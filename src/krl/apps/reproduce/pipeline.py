@@ -274,7 +274,9 @@ _QUICK_GAIT_BUDGET: int = 8000
 _QUICK_GAIT_EPISODE: float = 2.0
 """Episode length of the quick gait-ablation runs [s]: their 1000 control steps (200 Hz) of each of 8
 robots end two episodes, as a study's run must (a 60 s episode is 12 000 steps)."""
-_ABLATION = "{runs}/agent-studies/gait-ablation"
+_AGENT_STUDIES = "{runs}/agent-studies"
+"""Where each agent study's folder is (``<study>``)."""
+_ABLATION = f"{_AGENT_STUDIES}/gait-ablation"
 """The gait ablation's study folder."""
 _TRIALS = f"{_ABLATION}/trials/list"
 """Where the gait ablation's run folders are (``VARIANT-seedS``)."""
@@ -292,7 +294,7 @@ def _gait_study_row(study: str, makes: str, minutes: ByMode[float], seeds: Seque
         makes,
         minutes,
         (
-            f"agent study {study} --out {{runs}}/agent-studies/{study}",
+            f"agent study {study} --out {_AGENT_STUDIES}/{study}",
             f"--seeds {','.join(map(str, seeds))} --jobs 2 --config {{config}}",
             ByMode("", f"--budget {_QUICK_GAIT_BUDGET}"),
             "--quiet",
@@ -349,7 +351,7 @@ def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
     )
 
 
-_GROUND = "{runs}/agent-studies/gait-ground"
+_GROUND = f"{_AGENT_STUDIES}/gait-ground"
 """The ground study's folder."""
 _GROUND_TRIALS = f"{_GROUND}/trials/list"
 """Where the ground study's run folders are (``VARIANT-seedS``)."""
