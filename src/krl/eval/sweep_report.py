@@ -153,21 +153,26 @@ def push_markdown(rows: list[dict[str, Any]]) -> str:
 
 
 def push_direction_markdown(rows: list[dict[str, Any]]) -> str:
-    """One table per force band of :data:`PUSH_FORCE_BANDS`: a row per controller, a column per direction."""
+    """One table per force band of :data:`PUSH_FORCE_BANDS` with rows: a row per controller, a column per
+    direction."""
     lines = [
         "### Push success by direction",
         "",
         "The force's horizontal direction relative to the walk (origin to target), in quarters of 90°; "
-        "success rate (attempts) and 95 % Wilson interval; over every force of the sweep, then over "
-        "350-600 N.",
+        "success rate (attempts) and 95 % Wilson interval; over every force of the sweep, then over each "
+        "band of forces.",
     ]
-    for band in dict.fromkeys(row["forces"] for row in rows):
+    for band in PUSH_FORCE_BANDS:
+        name = _band_name(band)
+        mine = [row for row in rows if row["forces"] == name]
+        if not mine:
+            continue
         lines += [
             "",
-            "All forces:" if band == "all" else f"Forces {band} N:",
+            "All forces:" if band is None else f"Forces {name} N:",
             "",
             *controller_table(
-                [row for row in rows if row["forces"] == band],
+                mine,
                 "direction",
                 PUSH_DIRECTIONS,
                 PUSH_DIRECTIONS,
