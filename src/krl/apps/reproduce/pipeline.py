@@ -282,6 +282,11 @@ _TRIALS = f"{_ABLATION}/trials/list"
 """Where the gait ablation's run folders are (``VARIANT-seedS``)."""
 
 
+def _gait_seed_split(seeds: Sequence[int]) -> tuple[Sequence[int], Sequence[int]]:
+    """(the seeds the gait studies train each variant from, the seeds a chosen recipe trains alone)."""
+    return seeds[:GAIT_ABLATION_SEEDS], seeds[GAIT_ABLATION_SEEDS:]
+
+
 def _gait_study_row(study: str, makes: str, minutes: ByMode[float], seeds: Sequence[int]) -> Row:
     """``krl agent study STUDY`` (a gait study) from ``seeds`` into ``RUNS/agent-studies/STUDY``, on the
     pipeline's kernel-ext in place of the shipped one; ``--quick`` with the quick agent's settings and
@@ -327,7 +332,7 @@ def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
 
     variants = [name for name, *_ in GAIT_DRIVES]
     driving = [name for name, _, drives, _ in GAIT_DRIVES if drives]  # agent-gait's candidates
-    ablation, more = seeds[:GAIT_ABLATION_SEEDS], seeds[GAIT_ABLATION_SEEDS:]
+    ablation, more = _gait_seed_split(seeds)
     policies = " ".join(f"--policy {name}={_TRIALS}/{name}-seed*" for name in variants)
     return (
         _gait_study_row(
@@ -367,7 +372,7 @@ def _ground_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
 
     variants = [variant.name for variant in STUDIES["gait-ground"].variants]
     broad = variants[-1]  # pyramids-pushes: pyramids and the stronger pushes, the broadest ground
-    ablation, more = seeds[:GAIT_ABLATION_SEEDS], seeds[GAIT_ABLATION_SEEDS:]
+    ablation, more = _gait_seed_split(seeds)
     policies = " ".join(f"--policy {name}={_GROUND_TRIALS}/{name}-seed*" for name in variants)
     return (
         # each pair of 2e7-step runs at once took 2 h 3 min - 2 h 7 min (2026-12-05)
@@ -401,7 +406,7 @@ def _gait_scoring_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
 
     variants = [name for name, *_ in GAIT_DRIVES]
     ground = [variant.name for variant in STUDIES["gait-ground"].variants]
-    ablation, more = seeds[:GAIT_ABLATION_SEEDS], seeds[GAIT_ABLATION_SEEDS:]
+    ablation, more = _gait_seed_split(seeds)
     # the seed group agent-gait-ground exists where the ground study's choice stood; --quick's runs are too
     # short for that, so it scores the study's runs only
     return (
