@@ -107,3 +107,10 @@ def test_evaluate_help_names_every_controller_kind(capsys):
     text = " ".join(capsys.readouterr().out.split())
     for kind in CONTROLLER_KINDS:
         assert f"{kind}, " in text and f"{kind}:" in text, kind  # the kind and one of its options
+
+
+def test_help_texts_name_every_shipped_agent():
+    from krl.agent.policy import SHIPPED_POLICIES
+    from krl.cli.common import SHIPPED_AGENTS
+
+    assert SHIPPED_AGENTS == ", ".join(SHIPPED_POLICIES)

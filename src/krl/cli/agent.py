@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from krl.cli import study
-from krl.cli.common import CliError, emit, labelled_policies, run_controller
+from krl.cli.common import SHIPPED_AGENTS, CliError, emit, labelled_policies, run_controller
 from krl.cli.common import add_run_arguments as add_common_run_arguments
 
 
@@ -356,8 +356,8 @@ def register(subparsers) -> None:
         parser.add_argument(
             "--policy",
             default="rp",
-            help="shipped agent (rp, base, gait), a policy file or a seed group; NAME@SEED picks a group's "
-            "seed (default: its first, rp is rp@150)",
+            help=f"shipped agent ({SHIPPED_AGENTS}), a policy file or a seed group; NAME@SEED picks a "
+            "group's seed (default: its first, rp is rp@150)",
         )
 
     p = group.add_parser("run", help="walk the agent to waypoints or at a fixed command")
@@ -393,7 +393,7 @@ def register(subparsers) -> None:
         "--policy",
         action="append",
         required=True,
-        help="[LABEL=]POLICY: a shipped name (rp, base, gait) or a policy file; repeat to compare",
+        help=f"[LABEL=]POLICY: a shipped name ({SHIPPED_AGENTS}) or a policy file; repeat to compare",
     )
     p.add_argument(
         "--course", default="stairs", help="a course on stairs: shipped name or file (default stairs)"
@@ -432,8 +432,8 @@ def register(subparsers) -> None:
         "--policy",
         action="append",
         required=True,
-        help="[LABEL=]POLICY: a shipped name (rp, base, gait), a policy file or a seed group (its seeds); "
-        "repeat",
+        help=f"[LABEL=]POLICY: a shipped name ({SHIPPED_AGENTS}), a policy file or a seed group (its "
+        "seeds); repeat",
     )
     p.add_argument("--episodes", type=int, default=32, help="episodes per policy file (default 32)")
     p.add_argument(

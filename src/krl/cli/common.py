@@ -24,6 +24,10 @@ class CliError(Exception):
     """A user-facing error: printed as ``krl: error: <message>`` with exit status 2."""
 
 
+SHIPPED_AGENTS = "rp, base, gait"
+"""The shipped agents' names as help texts list them: :data:`krl.agent.policy.SHIPPED_POLICIES`, which the
+command line does not import to start (tests/cli/test_defaults.py keeps the two equal)."""
+
 NEGATIVE_VALUE = re.compile(r"^-\.?\d")
 """A command-line word that starts like a negative number (``-0.9,0.9``, ``-.5``, ``-3``)."""
 

@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from krl.cli.common import default_of, emit, given, interrupted_status, parse_ints
+from krl.cli.common import SHIPPED_AGENTS, default_of, emit, given, interrupted_status, parse_ints
 from krl.eval.courses import HARDER_COURSES, SHIPPED_COURSES, THESIS_COURSES
 
 
@@ -52,10 +52,11 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
         action="append",
         required=True,
         metavar="SPEC",
-        help="expert, expert:stance=0.3, kernel, kernel:ext, kernel:PATH, agent, agent:base, agent:gait, "
-        "agent:PATH (a policy file or a folder of per-seed ones), gait, gait:capture=1,rate=2,ride=0.18 "
-        "(kernel-ext driven by a scripted rule after pushes) (repeatable; one file given several ways, by "
-        "name, path or as a byte-identical copy, runs once, under its first spelling's label)",
+        help="expert, expert:stance=0.3, kernel, kernel:ext, kernel:PATH, agent, agent:NAME (shipped: "
+        f"{SHIPPED_AGENTS}), agent:NAME@SEED, agent:PATH (a policy file or a folder of per-seed ones), gait, "
+        "gait:capture=1,rate=2,ride=0.18 (kernel-ext driven by a scripted rule after pushes) (repeatable; "
+        "one file given several ways, by name, path or as a byte-identical copy, runs once, under its first "
+        "spelling's label)",
     )
     parser.add_argument(
         "--course",

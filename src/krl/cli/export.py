@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from krl.cli.common import CliError, emit
+from krl.cli.common import SHIPPED_AGENTS, CliError, emit
 
 
 def run_export(args: argparse.Namespace) -> int:
@@ -35,7 +35,7 @@ def register(subparsers) -> None:
         help="output folder; a kernel-only export refuses one that holds a policy.onnx (delete it first)",
     )
     p.add_argument(
-        "--policy", help="shipped agent (rp, base, gait) or a policy file; its kernel is exported with it"
+        "--policy", help=f"shipped agent ({SHIPPED_AGENTS}) or a policy file; its kernel is exported with it"
     )
     p.add_argument(
         "--kernel", help="shipped kernel (base, ext) or a kernel file (default: the policy's, or base)"
