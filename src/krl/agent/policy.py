@@ -23,15 +23,12 @@ import numpy as np
 
 from krl.agent.config import AgentConfig, AgentConfigError
 from krl.agent.observation import layout, observation_size
+from krl.agent.shipped import SHIPPED_POLICIES
 from krl.util.hashing import file_sha256
 from krl.util.output import npz_bytes, write_atomic
 
 FILE_FORMAT = "krl-policy"
 FILE_VERSION = 1
-
-SHIPPED_POLICIES: tuple[str, ...] = ("rp", "base", "gait")
-"""Agents krl ships, each a seed group ``src/krl/agent/policies/agent-<name>/seed<S>.npz``: the thesis's
-agent-rp and agent-base, and krl's agent-gait (docs/agent-gait.md); ``agent`` alone means ``rp``."""
 
 
 class PolicyFileError(ValueError):

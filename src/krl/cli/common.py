@@ -19,14 +19,15 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from krl.agent.shipped import SHIPPED_POLICIES
+
 
 class CliError(Exception):
     """A user-facing error: printed as ``krl: error: <message>`` with exit status 2."""
 
 
-SHIPPED_AGENTS = "rp, base, gait"
-"""The shipped agents' names as help texts list them: :data:`krl.agent.policy.SHIPPED_POLICIES`, which the
-command line does not import to start (tests/cli/test_defaults.py keeps the two equal)."""
+SHIPPED_AGENTS = ", ".join(SHIPPED_POLICIES)
+"""The shipped agents' names as help texts list them."""
 
 NEGATIVE_VALUE = re.compile(r"^-\.?\d")
 """A command-line word that starts like a negative number (``-0.9,0.9``, ``-.5``, ``-3``)."""
