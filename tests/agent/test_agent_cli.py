@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import pytest
 from agent_fakes import make_policy
 
 from krl.agent.config import AgentConfig
+from krl.agent.policy import load_policy, one_policy
 from krl.cli import main
 
 
@@ -59,6 +61,21 @@ def test_shipped_agent_gait_drives_the_gait_of_kernel_ext(seed, capsys):
         ("heights", "15:17"),
         ("clock_rate", "17:18"),
     ]
+
+
+@pytest.mark.parametrize("seed", [150, 215, 345, 556])
+def test_shipped_agent_gait_ground_is_agent_gaits_recipe_on_pyramids_and_stronger_pushes(seed, capsys):
+    """agent-gait-ground (docs/agent-gait.md): agent-gait's config but for its ground and training pushes."""
+    assert main(["agent", "info", "--policy", f"gait-ground@{seed}", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["policy"] == f"krl/agent/policies/agent-gait-ground/seed{seed}.npz"
+    assert (info["reward"], info["kernel"], info["training"]["seed"]) == ("rp", "ext", seed)
+    assert info["training"]["env_steps"] >= 20_000_000
+    gait, ground = (load_policy(one_policy(f"{name}@{seed}")[1]).config for name in ("gait", "gait-ground"))
+    fields = ("heightfield_probability", "pyramids_probability", "pyramids_step_height", "push_magnitude")
+    assert [getattr(ground.env, name) for name in fields] == [0.5, 0.25, (0.04, 0.08), (100.0, 600.0)]
+    as_gait = {name: getattr(gait.env, name) for name in fields}
+    assert replace(ground, env=replace(ground.env, **as_gait)) == gait
 
 
 def test_the_faithful_agent_acts_with_residuals_only(capsys):
