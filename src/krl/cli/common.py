@@ -16,6 +16,7 @@ import math
 import re
 import signal
 import sys
+import textwrap
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -33,14 +34,26 @@ NEGATIVE_VALUE = re.compile(r"^-\.?\d")
 """A command-line word that starts like a negative number (``-0.9,0.9``, ``-.5``, ``-3``)."""
 
 
+class HelpFormatter(argparse.HelpFormatter):
+    """argparse's help layout, wrapped at spaces only: a hyphenated name (``gait-ground``,
+    ``--friction-sweep``) stays whole on one line instead of breaking after a hyphen."""
+
+    def _split_lines(self, text: str, width: int) -> list[str]:
+        return textwrap.wrap(" ".join(text.split()), width, break_on_hyphens=False)
+
+
 class Parser(argparse.ArgumentParser):
-    """The parser of ``krl`` and of each of its subcommands (``add_subparsers`` makes its own kind).
+    """The parser of ``krl`` and of each of its subcommands (``add_subparsers`` makes its own kind), with
+    :class:`HelpFormatter` unless another is given.
 
     An option's value may start with a minus sign: argparse alone takes ``-0.9,0.9`` in ``--target
     -0.9,0.9`` for an option, as it recognises only plain negative numbers, so a word that starts like a
     negative number after an option taking a value is joined to it (``--target=-0.9,0.9``) before
     parsing. A usage error is one line on stderr (exit status 2), naming ``--help``.
     """
+
+    def __init__(self, *args, formatter_class: type[argparse.HelpFormatter] = HelpFormatter, **kwargs):
+        super().__init__(*args, formatter_class=formatter_class, **kwargs)
 
     def parse_known_args(self, args=None, namespace=None):
         words = sys.argv[1:] if args is None else list(args)
