@@ -117,3 +117,13 @@ def test_help_texts_name_every_shipped_agent(command, capsys):
         main([*command, "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert ", ".join(SHIPPED_POLICIES) in text, command
+
+
+@pytest.mark.parametrize("command", [("kernel", "run"), ("kernel", "eval"), ("export",)])
+def test_help_texts_name_every_shipped_kernel(command, capsys):
+    from krl.kernel.registry import SHIPPED_MODELS
+
+    with pytest.raises(SystemExit):
+        main([*command, "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert f"({', '.join(SHIPPED_MODELS)})" in text, command

@@ -21,6 +21,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from krl.agent.shipped import SHIPPED_POLICIES
+from krl.kernel.shipped import SHIPPED_MODELS
 
 
 class CliError(Exception):
@@ -29,6 +30,9 @@ class CliError(Exception):
 
 SHIPPED_AGENTS = ", ".join(SHIPPED_POLICIES)
 """The shipped agents' names as help texts list them."""
+
+SHIPPED_KERNELS = ", ".join(SHIPPED_MODELS)
+"""The shipped kernels' names as help texts list them."""
 
 NEGATIVE_VALUE = re.compile(r"^-\.?\d")
 """A command-line word that starts like a negative number (``-0.9,0.9``, ``-.5``, ``-3``)."""

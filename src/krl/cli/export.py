@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from krl.cli.common import SHIPPED_AGENTS, CliError, emit
+from krl.cli.common import SHIPPED_AGENTS, SHIPPED_KERNELS, CliError, emit
 
 
 def run_export(args: argparse.Namespace) -> int:
@@ -38,7 +38,8 @@ def register(subparsers) -> None:
         "--policy", help=f"shipped agent ({SHIPPED_AGENTS}) or a policy file; its kernel is exported with it"
     )
     p.add_argument(
-        "--kernel", help="shipped kernel (base, ext) or a kernel file (default: the policy's, or base)"
+        "--kernel",
+        help=f"shipped kernel ({SHIPPED_KERNELS}) or a kernel file (default: the policy's, or base)",
     )
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run_export)

@@ -13,15 +13,16 @@ from pathlib import Path
 from typing import Any
 
 from krl.cli.common import (
-    add_run_arguments as add_common_run_arguments,
-)
-from krl.cli.common import (
+    SHIPPED_KERNELS,
     default_of,
     emit,
     given,
     parse_ints,
     print_json_summary,
     run_controller,
+)
+from krl.cli.common import (
+    add_run_arguments as add_common_run_arguments,
 )
 
 # --- train -------------------------------------------------------------------------------------------
@@ -278,7 +279,9 @@ def run_study(args: argparse.Namespace) -> int:
 
 
 def add_eval_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--model", default="base", help="shipped kernel name (base, ext) or a kernel file")
+    parser.add_argument(
+        "--model", default="base", help=f"shipped kernel name ({SHIPPED_KERNELS}) or a kernel file"
+    )
     parser.add_argument("--data", help="score on this dataset instead of fresh expert data")
     parser.add_argument("--targets", type=int, default=3, help="targets of fresh validation data")
     parser.add_argument("--seed", type=int, default=12345, help="seed of the fresh validation data")
@@ -334,7 +337,9 @@ def run_eval(args: argparse.Namespace) -> int:
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     add_common_run_arguments(parser)
-    parser.add_argument("--model", default="base", help="shipped kernel name (base, ext) or a kernel file")
+    parser.add_argument(
+        "--model", default="base", help=f"shipped kernel name ({SHIPPED_KERNELS}) or a kernel file"
+    )
     parser.add_argument("--step-height", type=float, help="kernel-ext: step height [m], 0.05-0.18")
     parser.add_argument("--ride-height", type=float, help="kernel-ext: ride height [m], 0.18-0.28")
     parser.add_argument(

@@ -11,9 +11,7 @@ from importlib.resources import files
 from pathlib import Path
 
 from krl.kernel.model import Kernel, load_kernel
-
-SHIPPED_MODELS: tuple[str, ...] = ("base", "ext")
-"""Kernels shipped with krl (``src/krl/kernel/models/kernel-<name>.npz``)."""
+from krl.kernel.shipped import SHIPPED_MODELS
 
 
 def shipped_model_path(name: str) -> Path:
