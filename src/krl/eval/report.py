@@ -183,7 +183,9 @@ def _plot_courses(path: Path, tables: dict[str, list[dict[str, Any]]]) -> None:
             ]
             offset = (index - (len(labels) - 1) / 2) * width
             axis.bar(x + offset, values, width, label=label, color=colours[index])
-        axis.set_xticks(x, courses)
+            for position in (x + offset)[np.isnan(values)]:  # not run, which a bar of 0 would hide
+                axis.text(position, 0.01, "not run", rotation=90, ha="center", va="bottom", fontsize=6)
+        axis.set_xticks(x, courses, rotation=30, ha="right")
         axis.set_title(title)
         axis.set_ylim(0, 1.05)
     axes[1].legend(fontsize=8, loc="upper right")
