@@ -47,14 +47,21 @@ def test_each_shipped_agent_was_trained_with_its_own_reward(name, file, capsys):
     assert info["training"]["env_steps"] >= 20_000_000
 
 
+def shipped_gait_agent_info(name: str, seed: int, capsys) -> dict:
+    """``krl agent info --json`` of a shipped gait-driving agent's seed, after checking what every one of
+    them shares: its file, the thesis's reward, kernel-ext, its seed and a budget of 2e7 env steps."""
+    assert main(["agent", "info", "--policy", f"{name}@{seed}", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["policy"] == f"krl/agent/policies/agent-{name}/seed{seed}.npz"
+    assert (info["reward"], info["kernel"], info["training"]["seed"]) == ("rp", "ext", seed)
+    assert info["training"]["env_steps"] >= 20_000_000
+    return info
+
+
 @pytest.mark.parametrize("seed", [150, 215, 345, 556])
 def test_shipped_agent_gait_drives_the_gait_of_kernel_ext(seed, capsys):
     """agent-gait (docs/agent-gait.md): the thesis's reward, on kernel-ext, residuals and three drives."""
-    assert main(["agent", "info", "--policy", f"gait@{seed}", "--json"]) == 0
-    info = json.loads(capsys.readouterr().out)
-    assert info["policy"] == f"krl/agent/policies/agent-gait/seed{seed}.npz"
-    assert (info["reward"], info["kernel"], info["training"]["seed"]) == ("rp", "ext", seed)
-    assert info["training"]["env_steps"] >= 20_000_000
+    info = shipped_gait_agent_info("gait", seed, capsys)
     assert [(part["name"], part["slice"]) for part in info["action"]] == [
         ("residual", "0:12"),
         ("steer", "12:15"),
@@ -66,11 +73,7 @@ def test_shipped_agent_gait_drives_the_gait_of_kernel_ext(seed, capsys):
 @pytest.mark.parametrize("seed", [150, 215, 345, 556])
 def test_shipped_agent_gait_ground_is_agent_gaits_recipe_on_pyramids_and_stronger_pushes(seed, capsys):
     """agent-gait-ground (docs/agent-gait.md): agent-gait's config but for its ground and training pushes."""
-    assert main(["agent", "info", "--policy", f"gait-ground@{seed}", "--json"]) == 0
-    info = json.loads(capsys.readouterr().out)
-    assert info["policy"] == f"krl/agent/policies/agent-gait-ground/seed{seed}.npz"
-    assert (info["reward"], info["kernel"], info["training"]["seed"]) == ("rp", "ext", seed)
-    assert info["training"]["env_steps"] >= 20_000_000
+    shipped_gait_agent_info("gait-ground", seed, capsys)
     gait, ground = (load_policy(one_policy(f"{name}@{seed}")[1]).config for name in ("gait", "gait-ground"))
     fields = ("heightfield_probability", "pyramids_probability", "pyramids_step_height", "push_magnitude")
     assert [getattr(ground.env, name) for name in fields] == [0.5, 0.25, (0.04, 0.08), (100.0, 600.0)]
