@@ -40,10 +40,14 @@ NEGATIVE_VALUE = re.compile(r"^-\.?\d")
 
 class HelpFormatter(argparse.HelpFormatter):
     """argparse's help layout, wrapped at spaces only: a hyphenated name (``gait-ground``,
-    ``--friction-sweep``) stays whole on one line instead of breaking after a hyphen."""
+    ``--friction-sweep``) stays whole on one line instead of breaking after a hyphen, in an option's help
+    (``_split_lines``) as in a description (``_fill_text``)."""
 
     def _split_lines(self, text: str, width: int) -> list[str]:
         return textwrap.wrap(" ".join(text.split()), width, break_on_hyphens=False)
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        return "\n".join(indent + line for line in self._split_lines(text, width - len(indent)))
 
 
 class Parser(argparse.ArgumentParser):
