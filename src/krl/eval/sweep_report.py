@@ -153,8 +153,8 @@ def push_markdown(rows: list[dict[str, Any]]) -> str:
 
 
 def push_direction_markdown(rows: list[dict[str, Any]]) -> str:
-    """One table per force band of :data:`PUSH_FORCE_BANDS` with rows: a row per controller, a column per
-    direction."""
+    """One table per force band of :data:`PUSH_FORCE_BANDS` that has rows (bands none of ``rows`` is in
+    are left out): a row per controller, a column per direction."""
     lines = [
         "### Push success by direction",
         "",
