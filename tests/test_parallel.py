@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from krl.util.parallel import Interrupted, run_jobs
+from krl.util.parallel import Interrupted, raise_if_interrupted, run_jobs, signals_raise
 
 SPAWN_TIMEOUT = 30.0
 """How long the parent may take to start its workers on a loaded machine [s]."""
@@ -67,6 +67,30 @@ def test_sigterm_in_process_raises_interrupted_naming_the_finished_jobs():
     assert signal.getsignal(signal.SIGTERM) is before
 
 
+class SignalledWhileCollected:
+    """An object that SIGTERMs this process from its finaliser: the handler's exception is raised inside the
+    finaliser, where Python swallows it ("Exception ignored in ...", ``sys.unraisablehook``)."""
+
+    def __del__(self) -> None:
+        os.kill(os.getpid(), signal.SIGTERM)
+
+
+def test_a_stop_signal_whose_exception_a_finaliser_swallowed_still_stops(monkeypatch):
+    swallowed = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda unraisable: swallowed.append(unraisable.exc_type))
+    went_on = False
+    with pytest.raises(Interrupted) as caught:
+        with signals_raise():
+            SignalledWhileCollected()  # collected at once
+            went_on = True  # as a training would: the stop was lost here
+            raise_if_interrupted()
+    assert swallowed == [Interrupted] and went_on and caught.value.signum == signal.SIGTERM
+    with pytest.raises(Interrupted):  # a scope that ends without looking raises it on exit
+        with signals_raise():
+            SignalledWhileCollected()
+    raise_if_interrupted()  # the scopes are closed: nothing is pending
+
+
 def test_bad_worker_count():
     with pytest.raises(ValueError, match="workers must be >= 1"):
         run_jobs(_job, [], workers=0)
@@ -79,7 +103,7 @@ def test_bad_worker_count():
 PARENT = """
 import signal, sys, time
 signal.signal(signal.SIGINT, signal.default_int_handler)
-from krl.util.parallel import Interrupted, run_jobs
+from krl.util.parallel import Interrupted, raise_if_interrupted, run_jobs, signals_raise
 try:
     run_jobs(time.sleep, [60.0] * 4, workers=2)
 except Interrupted as stop:

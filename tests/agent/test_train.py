@@ -190,3 +190,26 @@ def test_same_seed_same_policy(tmp_path, small_config):
         np.testing.assert_array_equal(w1, w2)
         np.testing.assert_array_equal(b1, b2)
     np.testing.assert_array_equal(policies[0].obs_mean, policies[1].obs_mean)
+
+
+def test_a_sigterm_a_finaliser_swallowed_still_stops_training(tmp_path, small_config, monkeypatch):
+    """A study job trained on after its SIGTERM: the handler's exception was raised inside a finaliser
+    (SQLAlchemy's) during a garbage collection, where Python swallows it; the next env step stops."""
+    import os
+    import signal
+    import sys
+
+    from krl.util.parallel import Interrupted, signals_raise
+
+    class SignalledWhileCollected:
+        def __del__(self) -> None:
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    swallowed = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda unraisable: swallowed.append(unraisable.exc_type))
+    config = replace(small_config, total_steps=100_000)
+    with pytest.raises(Interrupted), signals_raise():
+        SignalledWhileCollected()  # collected at once: the stop is lost before training starts
+        train(tmp_path / "run", config, seed=3, progress=False, log=lambda _: None)
+    assert swallowed == [Interrupted]
+    assert int((tmp_path / "run" / "checkpoints" / "latest").read_text()) <= config.num_envs  # its first step

@@ -1,9 +1,10 @@
 """What :func:`krl.agent.train.train` logs and saves while PPO learns.
 
-Three SB3 callbacks, one job each: :class:`EpisodeLog` logs the episodes of every rollout,
+Four SB3 callbacks, one job each: :class:`EpisodeLog` logs the episodes of every rollout,
 :class:`Checkpointer` saves a checkpoint (:mod:`krl.agent.checkpoint` describes one and reads it back) every
-``checkpoint_every`` env steps, :class:`ProgressBar` shows the env steps on the terminal. They share a
-:class:`Clock` (the run's wall time over all its sittings).
+``checkpoint_every`` env steps, :class:`ProgressBar` shows the env steps on the terminal,
+:class:`StopOnSignal` stops on a stop signal whose exception was lost. They share a :class:`Clock` (the
+run's wall time over all its sittings).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from krl.agent.checkpoint import NORMALISER_FILE, NormaliserState
 from krl.agent.config import AgentConfig
 from krl.agent.network import export_policy
 from krl.util.output import write_atomic
+from krl.util.parallel import raise_if_interrupted
 from krl.util.progress import progress_bar
 from krl.util.timing import CONTROL_DT
 
@@ -115,6 +117,16 @@ class ProgressBar(BaseCallback):
     def close(self) -> None:
         """Take the bar off the terminal (also after an interruption)."""
         self.bar.stop()
+
+
+class StopOnSignal(BaseCallback):
+    """Raises :class:`krl.util.parallel.Interrupted` at the next env step once SIGINT or SIGTERM arrived in a
+    :func:`krl.util.parallel.signals_raise` scope and Python swallowed the handler's exception (it was raised
+    inside a finaliser: :func:`krl.util.parallel.raise_if_interrupted`); otherwise training would go on."""
+
+    def _on_step(self) -> bool:
+        raise_if_interrupted()
+        return True
 
 
 class Checkpointer(BaseCallback):

@@ -43,7 +43,7 @@ from stable_baselines3.common.logger import configure
 from stable_baselines3.common.vec_env import VecNormalize
 from threadpoolctl import threadpool_limits
 
-from krl.agent.callbacks import Checkpointer, Clock, EpisodeLog, ProgressBar
+from krl.agent.callbacks import Checkpointer, Clock, EpisodeLog, ProgressBar, StopOnSignal
 from krl.agent.checkpoint import Checkpoint, read_state
 from krl.agent.config import AgentConfig
 from krl.agent.network import SharedExtractor
@@ -58,15 +58,11 @@ from krl.agent.run_folder import (
     software,
     starting_point,
 )
-from krl.util.parallel import Interrupted
+from krl.util.parallel import signals_raise
 
 RESUME_SEED_STRIDE = 7919
 """A resumed run's environments are seeded ``seed + RESUME_SEED_STRIDE * (checkpoints passed + 1)`` (a
 prime, so that the sittings' environment seeds stay apart from each other's ``seed + i``)."""
-
-
-def _terminate(signum: int, frame: object) -> None:
-    raise Interrupted(signum)
 
 
 class LearningRate:
@@ -292,12 +288,11 @@ def _learn(
     Ctrl-C or SIGTERM saves a checkpoint and re-raises. Returns the summary of :func:`train`."""
     checkpointer = Checkpointer(out, config, run, clock, software())
     bar = ProgressBar(progress)
-    previous = signal.signal(signal.SIGTERM, _terminate)
     try:
-        with threadpool_limits(1, user_api="blas"):
+        with signals_raise((signal.SIGTERM,)), threadpool_limits(1, user_api="blas"):
             model.learn(
                 total - model.num_timesteps,
-                callback=[EpisodeLog(clock), checkpointer, bar, *callbacks],
+                callback=[EpisodeLog(clock), checkpointer, bar, StopOnSignal(), *callbacks],
                 reset_num_timesteps=model.num_timesteps == 0,  # a resumed model counts on
             )
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: keep what was learnt, then stop
@@ -306,6 +301,5 @@ def _learn(
         raise
     finally:
         bar.close()
-        signal.signal(signal.SIGTERM, previous)
     checkpointer.save(model, final=True)
     return _summary(out, int(model.num_timesteps), round(clock(), 1))

@@ -33,7 +33,15 @@ from typing import Any, TypeVar
 
 from krl.util.progress import progress_bar
 
-__all__ = ["PARENT_POLL", "STOP_GRACE", "Interrupted", "die_with_parent", "run_jobs"]
+__all__ = [
+    "PARENT_POLL",
+    "STOP_GRACE",
+    "Interrupted",
+    "die_with_parent",
+    "raise_if_interrupted",
+    "run_jobs",
+    "signals_raise",
+]
 
 J = TypeVar("J")
 R = TypeVar("R")
@@ -113,6 +121,7 @@ def run_jobs(
             if workers == 1 or len(jobs) <= 1:
                 for index, job in enumerate(jobs):
                     deliver(index, function(job))
+                    raise_if_interrupted()
             else:
                 _run_pool(function, jobs, min(workers, len(jobs)), deliver)
         except Interrupted as stop:
@@ -139,6 +148,7 @@ def _run_pool(
             done, _ = wait(futures, return_when=FIRST_COMPLETED)
             for future in sorted(done, key=futures.__getitem__):
                 deliver(futures.pop(future), future.result())
+            raise_if_interrupted()
     except BaseException:
         with _signals_ignored():
             pool.shutdown(wait=False, cancel_futures=True)
@@ -166,16 +176,40 @@ def stop_processes(processes: Sequence[Any], grace: float = STOP_GRACE) -> None:
         time.sleep(0.01)
 
 
+_received: list[int] = []
+"""The stop signals that arrived inside the open :func:`signals_raise` scopes, oldest first (main thread)."""
+
+
 def _raise_interrupted(signum: int, frame: object) -> None:
+    _received.append(signum)  # kept, in case Python swallows the exception (raise_if_interrupted)
     raise Interrupted(signum)
 
 
+def raise_if_interrupted() -> None:
+    """Raise :class:`Interrupted` if a stop signal arrived inside an open :func:`signals_raise` scope.
+
+    A handler's exception is raised in whatever Python code runs when the signal arrives; if that is a
+    finaliser or a weakref callback (SQLAlchemy's, say, during a garbage collection), Python prints
+    "Exception ignored in ..." and goes on, and the stop would be lost. Long loops call this once per step,
+    so they stop at the next one; a scope that ends without an exception raises it at the latest."""
+    if _received:
+        raise Interrupted(_received[-1])
+
+
 @contextmanager
-def signals_raise() -> Iterator[None]:
-    """Inside: SIGINT and SIGTERM raise :class:`Interrupted` (main thread only; an ignored signal stays
-    ignored). The previous handlers come back on exit."""
-    with _handlers(_raise_interrupted):
-        yield
+def signals_raise(signums: Sequence[signal.Signals] = _STOP_SIGNALS) -> Iterator[None]:
+    """Inside: ``signums`` (SIGINT and SIGTERM) raise :class:`Interrupted` (main thread only; an ignored
+    signal stays ignored). The previous handlers come back on exit; a signal whose exception was
+    swallowed (:func:`raise_if_interrupted`) raises :class:`Interrupted` there."""
+    mark = len(_received)
+    try:
+        with _handlers(_raise_interrupted, signums):
+            yield
+        swallowed = _received[mark:]
+    finally:
+        del _received[mark:]
+    if swallowed:
+        raise Interrupted(swallowed[-1])
 
 
 @contextmanager
@@ -186,12 +220,12 @@ def _signals_ignored() -> Iterator[None]:
 
 
 @contextmanager
-def _handlers(handler: Any) -> Iterator[None]:
+def _handlers(handler: Any, signums: Sequence[signal.Signals] = _STOP_SIGNALS) -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield  # signal handlers can only be set from the main thread
         return
     previous = {}
-    for signum in _STOP_SIGNALS:
+    for signum in signums:
         if signal.getsignal(signum) is not signal.SIG_IGN:
             previous[signum] = signal.signal(signum, handler)
     try:
