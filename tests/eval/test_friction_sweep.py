@@ -55,9 +55,9 @@ def test_a_course_files_friction_reaches_the_model(tmp_path, tiny):
 @pytest.mark.parametrize(
     "fields, message",
     [
-        ({"frictions": ()}, "frictions must be finite numbers > 0"),
-        ({"frictions": (1.0, 0.0)}, "frictions must be finite numbers > 0"),
-        ({"frictions": (0.5, float("nan"))}, "frictions must be finite numbers > 0"),
+        ({"frictions": ()}, "at least one friction coefficient"),
+        ({"frictions": (1.0, 0.0)}, "friction 0 is out of range: 0 < μ <= 5"),
+        ({"frictions": (0.5, float("nan"))}, "friction nan is out of range"),
         ({"frictions": (0.5, 0.5)}, "frictions must be distinct"),
         ({"courses": ()}, "at least one course"),
     ],
@@ -144,7 +144,7 @@ def test_friction_summary_by_hand():
 @pytest.mark.parametrize(
     "options, message",
     [
-        (["--frictions", "0"], "--frictions expects a comma list of friction coefficients > 0, got '0'"),
+        (["--frictions", "0"], "--frictions: 0 is out of range: 0 < μ <= 5 (got '0')"),
         (["--frictions", "0.5,x"], "--frictions expects a comma list"),
         (["--frictions", "0.5,0.5"], "frictions must be distinct"),
         (["--friction-course", "moon"], "unknown course 'moon'"),

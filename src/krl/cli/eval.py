@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import shlex
 import sys
@@ -32,13 +31,19 @@ def _magnitudes(text: str) -> tuple[float, ...]:
 
 
 def _frictions(text: str) -> tuple[float, ...]:
-    """``1,0.5,0.3`` -> ground friction coefficients μ [-], each a finite number > 0."""
+    """``1,0.5,0.3`` -> ground friction coefficients μ [-], each checked here against the ground's range
+    (:data:`krl.eval.episodes.FRICTION_RANGE`), so a bad value anywhere in the list is refused before any
+    run."""
+    from krl.eval.episodes import FRICTION_RANGE, friction_in_range
+
+    parts = [part.strip() for part in text.split(",")]
     try:
-        values = tuple(float(part) for part in text.split(","))
+        values = tuple(float(part) for part in parts)
     except ValueError:
-        values = ()
-    if not values or not all(math.isfinite(mu) and mu > 0 for mu in values):
-        raise ValueError(f"--frictions expects a comma list of friction coefficients > 0, got {text!r}")
+        raise ValueError(f"--frictions expects a comma list of friction coefficients, got {text!r}") from None
+    for part, mu in zip(parts, values, strict=True):
+        if not friction_in_range(mu):
+            raise ValueError(f"--frictions: {part} is out of range: {FRICTION_RANGE} (got {text!r})")
     return values
 
 

@@ -18,6 +18,7 @@ import numpy as np
 from krl.control.commands import CommandParams
 from krl.control.mpc import MPCError
 from krl.sim.robot import SimulationUnstableError
+from krl.sim.terrains import MAX_GROUND_FRICTION
 from krl.task.reward import EVALUATION_REWARD, RewardConfig, StanceMemory, reward_terms
 from krl.task.runner import Runner, StepRecord
 from krl.task.waypoints import TARGET_TIME_LIMIT, WaypointStep
@@ -259,6 +260,17 @@ on the flat and height-field courses); 0.4 and 0.3, slippery ground (wet or dust
 controller starts to slip and fall."""
 
 
+FRICTION_RANGE = f"0 < μ <= {MAX_GROUND_FRICTION:g}"
+"""The ground friction coefficients a sweep can set, as messages state them: the range of every terrain's
+``friction`` parameter (:data:`krl.sim.terrains.MAX_GROUND_FRICTION`)."""
+
+
+def friction_in_range(mu: float) -> bool:
+    """Whether ``mu`` [-] is a ground friction coefficient every terrain takes (:data:`FRICTION_RANGE`), so a
+    sweep can be refused whole before its first run instead of failing at the first course built at ``mu``."""
+    return math.isfinite(mu) and 0 < mu <= MAX_GROUND_FRICTION
+
+
 @dataclass(frozen=True)
 class FrictionSweep:
     """The friction sweep: courses walked again, from every start pose, with the ground's sliding friction
@@ -266,13 +278,16 @@ class FrictionSweep:
     changes along the sweep: the course, its starts and its time limit stay."""
 
     frictions: tuple[float, ...] = FRICTION_SWEEP_FRICTIONS
-    """Ground friction coefficients μ [-], each > 0 and distinct."""
+    """Ground friction coefficients μ [-], each in :data:`FRICTION_RANGE` and distinct."""
     courses: tuple[str, ...] = ("flat", "heightfield")
     """The courses walked at each μ (shipped names or course files): flat ground and a height field."""
 
     def __post_init__(self) -> None:
-        if not self.frictions or any(not (math.isfinite(mu) and mu > 0) for mu in self.frictions):
-            raise ValueError(f"frictions must be finite numbers > 0, got {self.frictions}")
+        if not self.frictions:
+            raise ValueError("the friction sweep needs at least one friction coefficient")
+        for mu in self.frictions:
+            if not friction_in_range(mu):
+                raise ValueError(f"friction {mu:g} is out of range: {FRICTION_RANGE} (in {self.frictions})")
         if len(set(self.frictions)) != len(self.frictions):
             raise ValueError(f"frictions must be distinct, got {self.frictions}")
         if not self.courses:

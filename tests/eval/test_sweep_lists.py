@@ -1,0 +1,51 @@
+"""Sweep list options (``--frictions``, ``--magnitudes``) are checked whole before any run starts."""
+
+import pytest
+
+from krl.cli import main
+from krl.eval.episodes import FrictionSweep
+from krl.sim.terrains import MAX_GROUND_FRICTION
+
+TINY = """
+format = 1
+name = "tiny"
+time_limit = 0.1
+d_min = 0.5
+waypoints = [[3.0, 0.0]]
+starts = [[0.0, 0.0, 0.0]]
+
+[terrain]
+name = "flat"
+"""
+
+
+@pytest.fixture
+def tiny(tmp_path):
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY)
+    return path
+
+
+def test_a_friction_above_the_grounds_range_is_refused_by_the_sweep():
+    assert MAX_GROUND_FRICTION == 5.0  # the message below names it
+    with pytest.raises(ValueError, match=r"friction 6 is out of range: 0 < μ <= 5"):
+        FrictionSweep(frictions=(1.0, 6.0))
+    assert FrictionSweep(frictions=(MAX_GROUND_FRICTION,)).frictions == (5.0,)  # the bound itself is valid
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        (["--friction-sweep", "--frictions", "1,6"], "--frictions: 6 is out of range: 0 < μ <= 5"),
+        (["--friction-sweep", "--frictions", "1,-0.5"], "--frictions: -0.5 is out of range: 0 < μ <= 5"),
+        (["--push-sweep", "--magnitudes", "300,-50"], "push magnitudes must be finite numbers >= 0 N"),
+    ],
+)
+def test_a_bad_value_late_in_a_sweep_list_is_refused_before_any_run(tmp_path, tiny, capsys, options, message):
+    # before the fix, --frictions 1,6 ran (and stored) the μ = 1 runs, then failed on μ = 6
+    out = tmp_path / "out"
+    argv = ["evaluate", "--controller", "expert", "--friction-course", str(tiny), *options]
+    assert main([*argv, "--out", str(out), "--workers", "1", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1, err
+    assert not out.exists()
