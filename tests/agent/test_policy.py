@@ -172,3 +172,23 @@ def test_a_policy_file_records_its_whole_reward_and_shipped_names_still_load(tmp
     )
     base = load_policy(shipped_policy_dir() / "agent-base" / "seed150.npz")
     assert base.config.env.reward == AGENT_BASE_REWARD
+
+
+@pytest.mark.parametrize(
+    "content", [b"hello, a text file\n", bytes(range(256)) * 4, b"\x93NUMPY\x01\x00garbage"]
+)
+def test_a_text_or_garbage_file_is_not_a_policy_file_without_numpys_pickle_advice(tmp_path, content):
+    """Issue 47: NumPy told a user to load a text file with ``allow_pickle``; krl says what it is not."""
+    path = tmp_path / "notes.npz"
+    path.write_bytes(content)
+    with pytest.raises(PolicyFileError) as caught:
+        load_policy(path)
+    assert str(caught.value) == f"{path} is not a krl policy (.npz) file"
+
+
+def test_an_npz_of_pickled_objects_is_not_a_policy_file(tmp_path):
+    path = tmp_path / "objects.npz"
+    np.savez(path, header=np.array([{"format": "krl-policy"}], dtype=object))
+    with pytest.raises(PolicyFileError) as caught:
+        load_policy(path)
+    assert str(caught.value) == f"{path} is not a krl policy (.npz) file"

@@ -105,11 +105,17 @@ def load_policy(path: str | Path, kernel_path: str | Path | None = None, check_k
     path = Path(path)
     if not path.is_file():
         raise PolicyFileError(f"policy file not found: {path}")
+    if not zipfile.is_zipfile(path):  # NumPy would read it as a pickle and advise allow_pickle
+        raise PolicyFileError(f"{path} is not a krl policy (.npz) file")
     try:
         with np.load(path, allow_pickle=False) as archive:
             arrays = {name: archive[name] for name in archive.files}
         header = json.loads(str(arrays["header"]))
-    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as error:
+    except ValueError as error:
+        if "allow_pickle" in str(error):  # an archive of pickled objects: never a policy file
+            raise PolicyFileError(f"{path} is not a krl policy (.npz) file") from None
+        raise PolicyFileError(f"policy file {path} is corrupt or not a policy: {error}") from None
+    except (OSError, KeyError, zipfile.BadZipFile, EOFError) as error:
         raise PolicyFileError(f"policy file {path} is corrupt or not a policy: {error}") from None
     if not isinstance(header, dict) or header.get("format") != FILE_FORMAT:
         raise PolicyFileError(f"{path} is not a krl policy file")
