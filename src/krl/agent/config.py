@@ -50,6 +50,9 @@ RHYTHM_RANGE: tuple[float, float] = (0.5, 2.0)
 at every rate in them without a fall, its speed rising with the rate up to 2 (``krl agent rhythm``,
 docs/agent-gait.md)."""
 
+SYMMETRY_MODES: tuple[str, ...] = ("none", "augment", "loss")
+"""The values of :attr:`PPOConfig.symmetry` (:mod:`krl.agent.symmetric_ppo` describes each)."""
+
 GAIT_ALPHA: float = 0.05
 """Default smoothing α of the driven gait inputs' low-pass filter: a time constant of ~0.1 s at 200 Hz,
 twice the residuals' (ours, docs/agent-gait.md)."""
@@ -281,9 +284,20 @@ class PPOConfig:
     """Running mean/std normalisation of observations (ours; exported with the policy)."""
     normalize_rewards: bool = True
     """Scale rewards by a running estimate of the return's std (ours; training only)."""
+    symmetry: str = "none"
+    """Left-right mirror symmetry asked of the policy (ours, :mod:`krl.agent.symmetric_ppo`): ``none`` (the
+    thesis's PPO), ``augment`` (each minibatch joined by its mirror image) or ``loss`` (a mirror loss on the
+    mean action and the value)."""
+    mirror_loss_coef: float = 1.0
+    """Weight of the mirror loss with ``symmetry = "loss"`` (ours)."""
 
     def __post_init__(self) -> None:
-        for name in ("learning_rate", "lr_decay_horizon", "ent_coef", "gamma", "gae_lambda", "clip_range"):
+        if self.symmetry not in SYMMETRY_MODES:
+            raise AgentConfigError(
+                f"unknown symmetry mode {self.symmetry!r}; known: {', '.join(SYMMETRY_MODES)}"
+            )
+        names = ("learning_rate", "lr_decay_horizon", "ent_coef", "gamma", "gae_lambda", "clip_range")
+        for name in (*names, "mirror_loss_coef"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise AgentConfigError(f"{name} must be a finite number >= 0, got {value!r}")

@@ -58,6 +58,8 @@ from krl.agent.run_folder import (
     software,
     starting_point,
 )
+from krl.agent.symmetric_ppo import ppo_update
+from krl.agent.symmetry import MirrorError, SignedPermutation, action_mirror, observation_mirror
 from krl.util.parallel import signals_raise
 
 RESUME_SEED_STRIDE = 7919
@@ -95,12 +97,51 @@ class ThreadedPPO(PPO):
     def train(self) -> None:
         torch.set_num_threads(self.update_threads)
         try:
-            super().train()
+            self._update()
         finally:
             torch.set_num_threads(1)
 
+    def _update(self) -> None:
+        """One PPO update after a rollout: SB3's."""
+        super().train()
+
     def _excluded_save_params(self) -> list[str]:
         return [*super()._excluded_save_params(), "update_threads"]
+
+
+class SymmetricPPO(ThreadedPPO):
+    """:class:`ThreadedPPO` whose update asks for left-right symmetry (:mod:`krl.agent.symmetric_ppo`).
+
+    Set after construction: ``symmetry`` (``augment`` or ``loss``), ``mirror_loss_coef``, and the mirrors
+    ``observation_mirror`` and ``action_mirror`` (:mod:`krl.agent.symmetry`).
+    """
+
+    symmetry: str = "augment"
+    mirror_loss_coef: float = 1.0
+    observation_mirror: SignedPermutation
+    action_mirror: SignedPermutation
+
+    def _update(self) -> None:
+        ppo_update(self, self.observation_mirror, self.action_mirror)
+
+    def _excluded_save_params(self) -> list[str]:
+        mirror_settings = ["symmetry", "mirror_loss_coef", "observation_mirror", "action_mirror"]
+        return [*super()._excluded_save_params(), *mirror_settings]
+
+
+def mirrors(config: AgentConfig, kernel_path: str) -> tuple[SignedPermutation, SignedPermutation]:
+    """The observation's and the action's mirrors for ``config`` with the kernel at ``kernel_path``;
+    TrainingError (one line) where the mirror misses a feature or an action part's range is not symmetric."""
+    from krl.agent.action import action_parts
+    from krl.kernel.model import load_kernel
+
+    try:
+        return (
+            observation_mirror(config.observation.features),
+            action_mirror(action_parts(config.residual, load_kernel(kernel_path))),
+        )
+    except MirrorError as error:
+        raise TrainingError(f"symmetry {config.ppo.symmetry!r}: {error}") from None
 
 
 def _policy_kwargs(config: AgentConfig) -> dict[str, Any]:
@@ -170,12 +211,14 @@ def train(
         log(f"run {out} already has {done} env steps (of {total}); nothing to do")
         return _summary(out, done, wall_before)
     start = starting_point(run, latest)  # read whole before anything is written
+    kernel_path = run_kernel(out, config, run)
+    symmetric = None if config.ppo.symmetry == "none" else mirrors(config, kernel_path)
     os.environ["OPENBLAS_NUM_THREADS"] = "1"  # inherited by the spawned workers
     torch.set_num_threads(1)  # small networks: extra intra-op threads only spin against the env workers
     env_seed = _env_seed(run["seed"], config, None if latest is None else done)
-    venv = ProcessVecEnv(config, config.workers, config.num_envs, env_seed, run_kernel(out, config, run))
+    venv = ProcessVecEnv(config, config.workers, config.num_envs, env_seed, kernel_path)
     try:
-        model = _new_model(config, venv, run["seed"], total, device)
+        model = _new_model(config, venv, run["seed"], total, device, symmetric)
         model.update_threads = update_threads
         if latest is not None:
             _resume(model, start)
@@ -218,14 +261,23 @@ def _env_seed(seed: int, config: AgentConfig, resumed_at: int | None) -> int:
     return seed + RESUME_SEED_STRIDE * (resumed_at // config.checkpoint_every + 1)
 
 
-def _new_model(config: AgentConfig, venv, seed: int, total: int, device: str) -> ThreadedPPO:
+def _new_model(
+    config: AgentConfig,
+    venv,
+    seed: int,
+    total: int,
+    device: str,
+    symmetric: tuple[SignedPermutation, SignedPermutation] | None = None,
+) -> ThreadedPPO:
     """A PPO of the config's settings on ``device``, freshly initialised from ``seed``, on ``venv`` wrapped
-    in a running normaliser; its learning rate follows the schedule up to ``total`` env steps."""
+    in a running normaliser; its learning rate follows the schedule up to ``total`` env steps. With
+    ``symmetric`` (the observation's and the action's mirrors) a :class:`SymmetricPPO` of
+    ``config.ppo.symmetry``."""
     ppo = config.ppo
     env = VecNormalize(
         venv, norm_obs=ppo.normalize_observations, norm_reward=ppo.normalize_rewards, gamma=ppo.gamma
     )
-    model = ThreadedPPO(
+    model = (ThreadedPPO if symmetric is None else SymmetricPPO)(
         "MlpPolicy",
         env,
         learning_rate=LearningRate(ppo, total),
@@ -241,6 +293,9 @@ def _new_model(config: AgentConfig, venv, seed: int, total: int, device: str) ->
         device=device,
         verbose=0,
     )
+    if symmetric is not None:
+        model.symmetry, model.mirror_loss_coef = ppo.symmetry, ppo.mirror_loss_coef
+        model.observation_mirror, model.action_mirror = symmetric
     return model
 
 

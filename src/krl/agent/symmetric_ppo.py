@@ -1,0 +1,152 @@
+"""Mirror-symmetric PPO: the thesis's PPO update with the A1's left-right mirror (ours, docs/agent-robust.md).
+
+A residual agent on a symmetric robot should act as the mirror image of itself in the mirrored state:
+``π(M_o s) = M_a π(s)`` and ``V(M_o s) = V(s)`` (:mod:`krl.agent.symmetry` gives M_o and M_a). Two standard
+ways to ask PPO for it (rsl_rl's symmetry configuration; Mittal et al., ICRA 2024; Su et al., IROS 2024):
+
+``augment``
+    every minibatch of B samples ``(s, a, A, R, log π_old(a|s), V_old)`` is joined by its mirror
+    ``(M_o s, M_a a, A, R, log π_old(a|s), V_old)``: 2B samples, the advantage and return unchanged (the
+    MDP is symmetric), the old log-probability the original's (the mirrored action's behaviour probability
+    under a symmetric policy);
+``loss``
+    the PPO loss of the B samples plus ``mirror_loss_coef`` × (the mean squared difference between the
+    policy's mean action in the mirrored states and the mirror of its mean action, plus the same of the
+    value function, times ``vf_coef``).
+
+Both log ``train/mirror_error`` (the first of those two squared differences, before the step), so every
+run, the unsymmetric one too, can say how symmetric its policy is. With ``symmetry = "none"`` krl trains
+with SB3's own update (:class:`krl.agent.train.ThreadedPPO`); this update without mirror terms is SB3's
+step for step (``tests/agent/test_symmetric_ppo.py`` checks equal weights after an update).
+
+The stored observations are normalised by the run's ``VecNormalize``; a stored observation is mirrored as
+the raw one would be: un-normalised with the current statistics, mirrored, normalised and clipped again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from torch.nn import functional
+
+from krl.agent.symmetry import SignedPermutation
+
+
+@dataclass(frozen=True)
+class NormalisedMirror:
+    """The mirror of observations normalised as ``clip((x - mean) / std, -clip, clip)``. Torch, (B, D)."""
+
+    mirror: SignedPermutation
+    mean: torch.Tensor
+    std: torch.Tensor
+    clip: float
+
+    @classmethod
+    def of(cls, mirror: SignedPermutation, normaliser, device) -> NormalisedMirror:
+        """For the observations ``normaliser`` (SB3's ``VecNormalize`` or None: raw) produces now."""
+        size = mirror.size
+        if normaliser is None or not normaliser.norm_obs:
+            mean, std, clip = np.zeros(size), np.ones(size), np.inf
+        else:
+            rms = normaliser.obs_rms
+            mean, std, clip = rms.mean, np.sqrt(rms.var + normaliser.epsilon), float(normaliser.clip_obs)
+        as_tensor = lambda a: torch.as_tensor(np.asarray(a, dtype=np.float32), device=device)  # noqa: E731
+        return cls(mirror, as_tensor(mean), as_tensor(std), clip)
+
+    def __call__(self, observations: torch.Tensor) -> torch.Tensor:
+        raw = observations * self.std + self.mean
+        return torch.clamp((self.mirror(raw) - self.mean) / self.std, -self.clip, self.clip)
+
+
+def ppo_update(model, observation_mirror: SignedPermutation, action_mirror: SignedPermutation) -> None:
+    """One PPO update of ``model`` (SB3's PPO after a rollout) with ``model.symmetry``'s mirror terms.
+
+    The update reads as SB3's: ``n_epochs`` passes over the rollout in minibatches of ``batch_size``,
+    per-minibatch advantage normalisation, the clipped surrogate, the value loss, the entropy bonus,
+    gradient-norm clipping. Logs SB3's ``train/*`` values and ``train/mirror_error``, ``train/mirror_loss``.
+    """
+    policy = model.policy
+    policy.set_training_mode(True)
+    model._update_learning_rate(policy.optimizer)
+    clip_range = model.clip_range(model._current_progress_remaining)
+    mirror_obs = NormalisedMirror.of(observation_mirror, model.get_vec_normalize_env(), model.device)
+    logs: dict[str, list[float]] = {}
+    for _ in range(model.n_epochs):
+        logs["approx_kl"] = []  # SB3 logs the last epoch's
+        for batch in model.rollout_buffer.get(model.batch_size):
+            loss, values = _minibatch_loss(model, batch, clip_range, mirror_obs, action_mirror)
+            for name, value in values.items():
+                logs.setdefault(name, []).append(value)
+            policy.optimizer.zero_grad()
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(policy.parameters(), model.max_grad_norm)
+            policy.optimizer.step()
+        model._n_updates += 1
+    _log(model, logs, clip_range)
+
+
+def _minibatch_loss(model, batch, clip_range: float, mirror_obs: NormalisedMirror, mirror_act):
+    """The loss of one minibatch and its logged parts (floats)."""
+    observations, actions = batch.observations, batch.actions
+    advantages, returns = batch.advantages, batch.returns
+    old_log_prob, old_values = batch.old_log_prob, batch.old_values
+    mirrored = mirror_obs(observations)
+    if model.symmetry == "augment":
+        observations = torch.cat([observations, mirrored])
+        actions = torch.cat([actions, mirror_act(actions)])
+        advantages, returns, old_log_prob, old_values = (
+            torch.cat([x, x]) for x in (advantages, returns, old_log_prob, old_values)
+        )
+    values, log_prob, entropy = model.policy.evaluate_actions(observations, actions)
+    values = values.flatten()
+    if model.normalize_advantage and len(advantages) > 1:
+        advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
+    ratio = torch.exp(log_prob - old_log_prob)
+    surrogate = torch.min(advantages * ratio, advantages * torch.clamp(ratio, 1 - clip_range, 1 + clip_range))
+    policy_loss = -surrogate.mean()
+    value_loss = functional.mse_loss(returns, values)
+    entropy_loss = -torch.mean(entropy) if entropy is not None else torch.mean(log_prob)
+    loss = policy_loss + model.ent_coef * entropy_loss + model.vf_coef * value_loss
+    action_error, value_error = _mirror_errors(model.policy, batch.observations, mirrored, mirror_act)
+    if model.symmetry == "loss":
+        mirror_loss = action_error + model.vf_coef * value_error
+        loss = loss + model.mirror_loss_coef * mirror_loss
+    with torch.no_grad():
+        log_ratio = log_prob - old_log_prob
+        logged = {
+            "policy_gradient_loss": policy_loss.item(),
+            "value_loss": value_loss.item(),
+            "entropy_loss": entropy_loss.item(),
+            "clip_fraction": torch.mean((torch.abs(ratio - 1) > clip_range).float()).item(),
+            "approx_kl": torch.mean(torch.exp(log_ratio) - 1 - log_ratio).item(),
+            "mirror_error": action_error.item(),
+            "loss": loss.item(),
+        }
+    return loss, logged
+
+
+def _mirror_errors(policy, observations, mirrored, mirror_act) -> tuple[torch.Tensor, torch.Tensor]:
+    """Mean squared ``π̄(M_o s) - M_a π̄(s)`` over actions and ``V(M_o s) - V(s)`` (π̄: the mean action)."""
+    both = torch.cat([observations, mirrored])
+    means = policy.get_distribution(both).distribution.mean
+    values = policy.predict_values(both).flatten()
+    half = len(observations)
+    action_error = functional.mse_loss(means[half:], mirror_act(means[:half]))
+    value_error = functional.mse_loss(values[half:], values[:half])
+    return action_error, value_error
+
+
+def _log(model, logs: dict[str, list[float]], clip_range: float) -> None:
+    """SB3's ``train/*`` records of an update (the last minibatch's loss, the others' means)."""
+    from stable_baselines3.common.utils import explained_variance
+
+    buffer = model.rollout_buffer
+    record = model.logger.record
+    for name, values in logs.items():
+        record(f"train/{name}", values[-1] if name == "loss" else float(np.mean(values)))
+    record("train/explained_variance", explained_variance(buffer.values.flatten(), buffer.returns.flatten()))
+    record("train/std", torch.exp(model.policy.log_std).mean().item())
+    record("train/n_updates", model._n_updates, exclude="tensorboard")
+    record("train/clip_range", clip_range)
