@@ -80,3 +80,30 @@ class StandStill:
 
     def act(self, state, command):
         return JointCommand(np.zeros(12))
+
+
+class TurningPointSim(PointSim):
+    """A PointSim that turns ``turn_per_step`` [rad] every control step and walks along its heading, counting
+    its control steps as A1Sim does (``step_count``), so the heading at a push is known by hand."""
+
+    def __init__(self, speed_per_step=0.001, turn_per_step=0.05, fall_at=None):
+        super().__init__(speed_per_step, fall_at)
+        self.turn_per_step = turn_per_step
+        self.yaw = 0.0
+
+    @property
+    def step_count(self):
+        return self.steps
+
+    def reset(self, xy=(0.0, 0.0), yaw=0.0):
+        self.yaw = yaw
+        return super().reset(xy, yaw)
+
+    def step(self, q_target, kp=None, kd=None, tau_ff=None):
+        self.steps += 1
+        self.yaw += self.turn_per_step
+        x, y = self.state.base_pos[:2] + self.speed_per_step * np.array(
+            [math.cos(self.yaw), math.sin(self.yaw)]
+        )
+        self.state = make_state(xy=(x, y), yaw=self.yaw, time=self.time, fallen=self.steps == self.fall_at)
+        return self.state

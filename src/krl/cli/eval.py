@@ -48,7 +48,7 @@ def _frictions(text: str) -> tuple[float, ...]:
 
 
 def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
-    from krl.eval.episodes import FrictionSweep, PushSweep
+    from krl.eval.episodes import PUSH_DIRECTION_DRAWS, FrictionSweep, PushSweep
 
     magnitudes = default_of(PushSweep, "magnitudes")
 
@@ -86,6 +86,14 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
         "--push-seed",
         type=int,
         help=f"seed of the push sweep's random pushes (default {default_of(PushSweep, 'seed')})",
+    )
+    parser.add_argument(
+        "--push-directions",
+        choices=PUSH_DIRECTION_DRAWS,
+        help="how the push sweep draws each attempt's direction: uniform (azimuth ~ U(-π, π), the thesis's) "
+        "or balanced (attempt a in quarter a mod 4 of forward, left, backward, right around the robot's "
+        "heading at the push; needs --attempts divisible by 4) "
+        f"(default {default_of(PushSweep, 'directions')})",
     )
     parser.add_argument(
         "--friction-sweep",
@@ -138,7 +146,10 @@ def push_sweep_from_args(args: argparse.Namespace):
     from krl.eval.episodes import PushSweep
 
     magnitudes = None if args.magnitudes is None else _magnitudes(args.magnitudes)
-    return PushSweep(**given(magnitudes=magnitudes, attempts=args.attempts, seed=args.push_seed))
+    options = given(
+        magnitudes=magnitudes, attempts=args.attempts, seed=args.push_seed, directions=args.push_directions
+    )
+    return PushSweep(**options)
 
 
 def friction_sweep_from_args(args: argparse.Namespace):
@@ -197,6 +208,8 @@ def run_evaluate(args: argparse.Namespace) -> int:
             )
             return interrupted_status(stop)
     summary: dict[str, Any] = {"results": str(out), "runs": len(tasks), **counts, "controllers": {}}
+    if sweep is not None:
+        summary["push_sweep"] = {**sweep.to_dict(), "directions": sweep.directions}
     for spec in specs:
         mine = [r for t, r in zip(tasks, records, strict=True) if t.controller == spec]
         entry: dict[str, Any] = {}
@@ -211,6 +224,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
             if spec.seeded:
                 entry["push_by_seed"] = summaries.summarise_push_by_seed(pushes)
             entry["push_directions"] = summaries.summarise_push_directions(pushes)
+            entry["push_left_right"] = summaries.summarise_push_left_right(pushes)
         if friction is not None:
             grounds = [r for r in mine if "friction" in r]
             entry["friction"] = summaries.summarise_friction(grounds)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -17,7 +18,8 @@ import numpy as np
 
 from krl.control.commands import CommandParams
 from krl.control.mpc import MPCError
-from krl.sim.robot import SimulationUnstableError
+from krl.eval.summaries import PUSH_DIRECTIONS, QUARTER
+from krl.sim.robot import RobotState, SimulationUnstableError
 from krl.sim.terrains import MAX_GROUND_FRICTION
 from krl.task.reward import EVALUATION_REWARD, RewardConfig, StanceMemory, reward_terms
 from krl.task.runner import Runner, StepRecord
@@ -118,13 +120,15 @@ def score_walk(
     push=None,
     video: str | Path | None = None,
     trace: list[np.ndarray] | None = None,
+    push_in_heading_frame: bool = False,
 ) -> dict[str, Any]:
     """Walk ``controller`` from ``start_pose`` through ``targets`` within ``time_limit`` [s] and score it.
 
     ``push`` (a :class:`krl.sim.pushes.Push`) is scheduled after the reset, and the metrics then carry
     ``push_heading``, the base's yaw [rad] at the control step the push starts (None if the run ended
-    before it); ``video`` records an MP4; ``trace`` receives the base position (x, y, z) [m] after every
-    control step.
+    before it); with ``push_in_heading_frame`` its force is relative to that heading (x forward, y left) and
+    is turned by it into the world frame when the push starts (:func:`_push_scheduler`). ``video`` records
+    an MP4; ``trace`` receives the base position (x, y, z) [m] after every control step.
     A diverging simulation or an MPC that gives up ends the run with an ``error`` (counted as a fall by the
     aggregates) instead of stopping the evaluation.
     """
@@ -138,12 +142,14 @@ def score_walk(
         recorder = VideoRecorder(sim, video)
 
     push_heading: float | None = None
+    schedule = _push_scheduler(sim, push, push_in_heading_frame)
 
     def on_step(record: StepRecord, step: WaypointStep) -> None:
         nonlocal push_heading
         scorer(record, step)
         if push is not None and push_heading is None and push.active_at(sim.step_count - 1):
             push_heading = float(record.before.rpy[2])  # the step just taken is the push's first
+        schedule(record.after)
         if recorder is not None:
             recorder.capture()
         if trace is not None:
@@ -153,9 +159,7 @@ def score_walk(
     wall = time.perf_counter()
     timed_out, error = False, None
     try:
-        runner.start(start_pose)
-        if push is not None:
-            sim.push(push)
+        schedule(runner.start(start_pose))
         result = runner.walk_to(
             targets, target_time_limit=time_limit, reset=False, time_limit=time_limit, on_task_step=on_step
         )
@@ -171,7 +175,25 @@ def score_walk(
     return metrics
 
 
+def _push_scheduler(sim, push, in_heading_frame: bool) -> Callable[[RobotState], None]:
+    """What schedules ``push`` (a :class:`krl.sim.pushes.Push`, or None) on ``sim``: call it with the state
+    before each control step (the reset's, then each step's result). A push in the world frame is scheduled
+    at the first call; one in the heading frame waits for the control step it starts at and is turned then by
+    the base's yaw in that state (:meth:`krl.sim.pushes.Push.turned`), the yaw ``push_heading`` records."""
+    pending = [] if push is None else [push]
+
+    def schedule(state: RobotState) -> None:
+        if pending and (not in_heading_frame or sim.step_count >= pending[0].start_step):
+            due = pending.pop()
+            sim.push(due.turned(float(state.rpy[2])) if in_heading_frame else due)
+
+    return schedule
+
+
 # --- the push sweep (thesis Section 5.3) ---------------------------------------------------------
+
+PUSH_DIRECTION_DRAWS: tuple[str, ...] = ("uniform", "balanced")
+"""How the push sweep draws each attempt's direction (:attr:`PushSweep.directions`)."""
 
 
 @dataclass(frozen=True)
@@ -197,6 +219,13 @@ class PushSweep:
     """Time allowed to reach the waypoint [s]."""
     d_min: float = CommandParams.d_min
     """Waypoint threshold [m]."""
+    directions: str = "uniform"
+    """How each attempt's push direction is drawn (:data:`PUSH_DIRECTION_DRAWS`). ``uniform``: azimuth
+    ~ U(-π, π) in the world frame, the thesis's (the robot starts facing +x, the target). ``balanced``:
+    attempt ``a`` is pushed in quarter ``PUSH_DIRECTIONS[a % 4]`` (forward, left, backward, right) of the
+    base's heading when the push starts, the azimuth ~ U(±45°) about the quarter's centre, so each quarter
+    has ``attempts / 4`` attempts per magnitude (``attempts`` must be divisible by 4); the start time,
+    elevation and point are the uniform draw's."""
 
     def __post_init__(self) -> None:
         if not self.magnitudes or any(not (math.isfinite(m) and m >= 0) for m in self.magnitudes):
@@ -206,9 +235,19 @@ class PushSweep:
         low, high = self.window
         if not 0 <= low <= high < self.time_limit:
             raise ValueError(f"push window must satisfy 0 <= low <= high < time_limit, got {self.window}")
+        if self.directions not in PUSH_DIRECTION_DRAWS:
+            known = ", ".join(PUSH_DIRECTION_DRAWS)
+            raise ValueError(f"unknown push directions {self.directions!r}; known: {known}")
+        if self.directions == "balanced" and self.attempts % len(PUSH_DIRECTIONS):
+            raise ValueError(
+                f"balanced push directions need attempts divisible by {len(PUSH_DIRECTIONS)} (one attempt "
+                f"per quarter in turn), got {self.attempts}"
+            )
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        """The sweep's settings, stored in every record and compared on resumption. ``directions`` is there
+        only when not ``uniform``: records made before the option existed resume as before."""
+        settings = {
             "magnitudes": list(self.magnitudes),
             "attempts": self.attempts,
             "seed": self.seed,
@@ -217,21 +256,45 @@ class PushSweep:
             "time_limit": self.time_limit,
             "d_min": self.d_min,
         }
+        if self.directions != "uniform":
+            settings["directions"] = self.directions
+        return settings
+
+    def stratum(self, attempt: int) -> str | None:
+        """The quarter of :data:`krl.eval.summaries.PUSH_DIRECTIONS` attempt ``attempt``'s push is drawn in
+        (``balanced``: the attempt's index mod 4, whatever ``attempts``), or None (``uniform``)."""
+        if self.directions == "uniform":
+            return None
+        return PUSH_DIRECTIONS[attempt % len(PUSH_DIRECTIONS)]
+
+    @property
+    def walk_heading(self) -> float:
+        """The direction of the walk, from the origin to the target [rad]."""
+        return math.atan2(self.target[1], self.target[0])
 
     def push(self, magnitude: float, attempt: int):
-        """The push of one attempt (:class:`krl.sim.pushes.Push`)."""
+        """The push of one attempt (:class:`krl.sim.pushes.Push`): in the world frame (``uniform``), or
+        relative to the base's heading at the push, x forward and y left (``balanced``)."""
         from krl.sim.pushes import scripted_push
 
-        return scripted_push(magnitude, np.random.default_rng([self.seed, attempt]), self.window)
+        rng = np.random.default_rng([self.seed, attempt])
+        stratum = self.stratum(attempt)
+        if stratum is None:
+            return scripted_push(magnitude, rng, self.window)
+        centre = PUSH_DIRECTIONS.index(stratum) * QUARTER
+        return scripted_push(
+            magnitude, rng, self.window, azimuth_range=(centre - QUARTER / 2, centre + QUARTER / 2)
+        )
 
-    def walk(self, controller, push, video=None) -> dict[str, Any]:
-        """The sweep's walk with ``push`` (a :class:`krl.sim.pushes.Push`): from the origin to the waypoint
-        on flat ground; the run's metrics (:func:`score_walk`)."""
+    def walk(self, controller, push, video=None, sim=None) -> dict[str, Any]:
+        """The sweep's walk with ``push`` (a :class:`krl.sim.pushes.Push`, in the frame :meth:`push` draws
+        it in): from the origin to the waypoint in ``sim`` (default an A1Sim on flat ground); the run's
+        metrics (:func:`score_walk`)."""
         from krl.sim.model import build_model
         from krl.sim.robot import A1Sim
 
         return score_walk(
-            A1Sim(build_model("flat")),
+            A1Sim(build_model("flat")) if sim is None else sim,
             controller,
             np.array([self.target]),
             (0.0, 0.0, 0.0),
@@ -239,15 +302,26 @@ class PushSweep:
             self.d_min,
             push=push,
             video=video,
+            push_in_heading_frame=self.directions != "uniform",
         )
 
 
 def score_push_attempt(
-    sweep: PushSweep, controller, magnitude: float, attempt: int, video=None
+    sweep: PushSweep, controller, magnitude: float, attempt: int, video=None, sim=None
 ) -> dict[str, Any]:
-    """One attempt of the sweep: the run's metrics plus the push (magnitude [N], impulse [N·s], Δv [m/s])."""
+    """One attempt of the sweep (in ``sim``, default :meth:`PushSweep.walk`'s): the run's metrics plus the
+    push (magnitude [N], impulse [N·s], Δv [m/s]) with its force in the world frame. A ``balanced`` push's
+    force is the one applied, turned by ``push_heading``, and its record adds ``stratum``, its quarter; a
+    push that never came (the run ended first) is recorded turned by the walk's direction, the heading
+    :func:`krl.eval.summaries.push_direction` then falls back to, so the report's quarter is the stratum."""
     push = sweep.push(magnitude, attempt)
-    return {**sweep.walk(controller, push, video=video), "push": push.summary()}
+    metrics = sweep.walk(controller, push, video=video, sim=sim)
+    stratum = sweep.stratum(attempt)
+    if stratum is None:
+        return {**metrics, "push": push.summary()}
+    heading = metrics["push_heading"]
+    applied = push.turned(sweep.walk_heading if heading is None else heading)
+    return {**metrics, "push": {**applied.summary(), "stratum": stratum}}
 
 
 # --- the friction sweep (ours, issue #25) --------------------------------------------------------------

@@ -74,10 +74,37 @@ def success_interval(successes: int, attempts: int) -> tuple[float, float]:
     return low, high
 
 
+def difference_interval(
+    successes_a: int, attempts_a: int, successes_b: int, attempts_b: int
+) -> tuple[float, float]:
+    """95 % interval of the difference of two success rates, p_a - p_b (``successes_a`` of ``attempts_a``
+    against ``successes_b`` of ``attempts_b``): Newcombe's hybrid score interval (Newcombe 1998, *Statistics
+    in Medicine* 17:873-890, method 10), built from each rate's Wilson score interval (l, u)
+    (:func:`success_interval`)::
+
+        low  = (p_a - p_b) - sqrt((p_a - l_a)² + (u_b - p_b)²)
+        high = (p_a - p_b) + sqrt((u_a - p_a)² + (p_b - l_b)²)
+
+    It stays inside [-1, 1] and keeps its coverage with few attempts and rates near 0 or 1, where the normal
+    approximation does not. It takes every attempt as independent of the others.
+    """
+    p_a, p_b = successes_a / max(attempts_a, 1), successes_b / max(attempts_b, 1)
+    low_a, high_a = success_interval(successes_a, attempts_a)
+    low_b, high_b = success_interval(successes_b, attempts_b)
+    difference = p_a - p_b
+    low = difference - math.hypot(p_a - low_a, high_b - p_b)
+    high = difference + math.hypot(high_a - p_a, p_b - low_b)
+    return max(-1.0, low), min(1.0, high)
+
+
 PUSH_DIRECTIONS: tuple[str, ...] = ("forward", "left", "backward", "right")
 """Quarters of the push's horizontal direction, relative to the base's heading when the push starts
 (:func:`push_direction`): each spans 90° centred on its name (``forward``: the force's azimuth within ±45°
 of it)."""
+
+QUARTER = math.pi / 2
+"""The angle [rad] of one quarter of :data:`PUSH_DIRECTIONS`: quarter k is centred on k·QUARTER from the
+heading, counter-clockwise (forward, left, backward, right)."""
 
 
 def push_direction(record: dict[str, Any]) -> str:
@@ -91,7 +118,7 @@ def push_direction(record: dict[str, Any]) -> str:
         target = record["sweep"]["target"]
         heading = math.atan2(target[1], target[0])
     relative = math.atan2(force[1], force[0]) - heading
-    quarter = round(relative / (math.pi / 2)) % 4
+    quarter = round(relative / QUARTER) % len(PUSH_DIRECTIONS)
     return PUSH_DIRECTIONS[quarter]
 
 
@@ -119,6 +146,39 @@ def summarise_push_directions(records: Sequence[dict[str, Any]]) -> list[dict[st
         for direction in PUSH_DIRECTIONS
         if direction in by_direction
     ]
+
+
+def push_draws(records: Sequence[dict[str, Any]]) -> str:
+    """How the push attempts' directions were drawn (``krl evaluate --push-directions``): ``uniform``,
+    ``balanced``, or both joined by ``+``; a record made before the option existed is ``uniform``."""
+    return "+".join(sorted({r["sweep"].get("directions", "uniform") for r in records}))
+
+
+def summarise_push_left_right(records: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
+    """Left push success minus right (:func:`push_direction`'s quarters) over ``records``: each side's
+    attempts and success rate, the difference and its 95 % interval (:func:`difference_interval`), and how the
+    directions were drawn (:func:`push_draws`); None where a side has no attempt."""
+    sides: dict[str, list[bool]] = {"left": [], "right": []}
+    for record in records:
+        direction = push_direction(record)
+        if direction in sides:
+            sides[direction].append(bool(record["metrics"]["success"]))
+    if not (sides["left"] and sides["right"]):
+        return None
+    (left, n_left), (right, n_right) = ((sum(side), len(side)) for side in sides.values())
+    low, high = difference_interval(left, n_left, right, n_right)
+    return {
+        "directions": push_draws(records),
+        "left_attempts": n_left,
+        "left_successes": left,
+        "left_success_rate": left / n_left,
+        "right_attempts": n_right,
+        "right_successes": right,
+        "right_success_rate": right / n_right,
+        "difference": left / n_left - right / n_right,
+        "difference_low": low,
+        "difference_high": high,
+    }
 
 
 def summarise_push(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:

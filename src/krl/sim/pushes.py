@@ -12,7 +12,7 @@ robot [m/s], so results can also be compared on those physical axes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -22,6 +22,9 @@ from krl.util.timing import CONTROL_DT, PHYSICS_DT, SUBSTEPS
 
 PushMode = Literal["control_step", "continuous"]
 PUSH_MODES: tuple[str, ...] = ("control_step", "continuous")
+
+FULL_TURN: tuple[float, float] = (-np.pi, np.pi)
+"""The azimuth range [rad] of a push's direction unless told otherwise: every horizontal direction."""
 
 
 @dataclass(frozen=True)
@@ -101,6 +104,14 @@ class Push:
         """Whether the push acts during control step ``step``."""
         return self.start_step <= step < self.start_step + self.num_steps
 
+    def turned(self, yaw: float) -> Push:
+        """This push with its force turned about the world's vertical by ``yaw`` [rad]: a force given
+        relative to a heading (x forward, y left, z up) put into the world frame for a base of that yaw.
+        The point stays in the trunk frame."""
+        cos, sin = np.cos(yaw), np.sin(yaw)
+        x, y, z = self.force
+        return replace(self, force=np.array([cos * x - sin * y, sin * x + cos * y, z]))
+
     def summary(self) -> dict[str, float | list[float] | str]:
         """A JSON-ready description: magnitude [N], impulse [N·s], delta_v [m/s], and the push itself."""
         return {
@@ -115,12 +126,15 @@ class Push:
         }
 
 
-def random_direction(rng: np.random.Generator, max_elevation: float) -> np.ndarray:
-    """Unit vector with azimuth ~ U(-π, π) and elevation above horizontal ~ U(0, max_elevation) [rad].
+def random_direction(
+    rng: np.random.Generator, max_elevation: float, azimuth_range: tuple[float, float] = FULL_TURN
+) -> np.ndarray:
+    """Unit vector with azimuth ~ U(azimuth_range) (default U(-π, π)) and elevation above horizontal
+    ~ U(0, max_elevation) [rad]. Draws the azimuth, then the elevation, one number each, whatever the range.
 
     Shape: (3,).
     """
-    azimuth = rng.uniform(-np.pi, np.pi)
+    azimuth = rng.uniform(*azimuth_range)
     elevation = rng.uniform(0.0, max_elevation)
     return np.array(
         [np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)]
@@ -163,12 +177,19 @@ class PushDistribution:
         if not 0 <= self.max_elevation < np.pi / 2:
             raise ValueError(f"push max_elevation must be in [0, π/2) rad, got {self.max_elevation}")
 
-    def sample(self, rng: np.random.Generator, start_time: float, magnitude: float | None = None) -> Push:
-        """Draw one push starting at ``start_time`` [s]; ``magnitude`` [N] fixes the force magnitude."""
+    def sample(
+        self,
+        rng: np.random.Generator,
+        start_time: float,
+        magnitude: float | None = None,
+        azimuth_range: tuple[float, float] = FULL_TURN,
+    ) -> Push:
+        """Draw one push starting at ``start_time`` [s]; ``magnitude`` [N] fixes the force magnitude,
+        ``azimuth_range`` [rad] the range its azimuth is drawn from (:func:`random_direction`)."""
         size = rng.uniform(*self.magnitude) if magnitude is None else float(magnitude)
         return Push(
             start_time=start_time,
-            force=size * random_direction(rng, self.max_elevation),
+            force=size * random_direction(rng, self.max_elevation, azimuth_range),
             point=random_trunk_point(rng),
             duration=self.duration,
             mode=self.mode,
@@ -202,8 +223,10 @@ def scripted_push(
     rng: np.random.Generator,
     window: tuple[float, float],
     distribution: PushDistribution | None = None,
+    azimuth_range: tuple[float, float] = FULL_TURN,
 ) -> Push:
-    """A single push of a given magnitude [N] at a random time ~ U(window) [s], random point and direction.
+    """A single push of a given magnitude [N] at a random time ~ U(window) [s], random point and direction
+    (its azimuth ~ U(azimuth_range) [rad]; the same draws in the same order whatever the range).
 
     Used by the robustness sweep (thesis Section 5.3).
     """
@@ -211,4 +234,4 @@ def scripted_push(
         raise ValueError(f"push magnitude must be a finite number >= 0 N, got {magnitude}")
     distribution = distribution or PushDistribution()
     start = float(rng.uniform(*window))
-    return distribution.sample(rng, start_time=start, magnitude=magnitude)
+    return distribution.sample(rng, start_time=start, magnitude=magnitude, azimuth_range=azimuth_range)
