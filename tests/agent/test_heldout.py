@@ -353,3 +353,28 @@ def test_bad_baseline_options_are_one_line(tmp_path, capsys, args, message):
     err = capsys.readouterr().err.strip()
     assert message in err and len(err.splitlines()) == 1
     assert not (tmp_path / "out").exists()
+
+
+def test_a_seed_group_of_a_policy_without_a_seed_is_refused_before_anything_is_walked_or_written(
+    tmp_path, capsys, small_config
+):
+    path = make_policy(replace(small_config, env=EnvConfig(episode_time=0.5))).save(tmp_path / "one.npz")
+    out, group = tmp_path / "heldout", tmp_path / "agent-chosen"
+    args = ["agent", "heldout", "--policy", f"p={path}", "--choose", "p", "--seed-group", str(group)]
+    assert main([*args, "--out", str(out), "--episodes", "3", "--workers", "1", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "'p' is one policy file without a seed" in err and len(err.splitlines()) == 1
+    assert not out.exists() and not group.exists()
+
+
+def test_a_refused_seed_group_writes_no_choice(tmp_path, tiny_group, capsys):
+    """Issue 47: a seed group that held another policy was refused only after choice.json was written."""
+    group, out = tmp_path / "agent-chosen", tmp_path / "heldout"
+    (group / "seed1").mkdir(parents=True)
+    (group / "seed1" / "policy.npz").write_bytes(b"another policy")
+    args = ["--policy", f"p={tiny_group}", "--choose", "p", "--seed-group", str(group), "--out", str(out)]
+    assert main(["agent", "heldout", *args, "--episodes", "3", "--workers", "1", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"{group / 'seed1'} holds another policy than" in err and len(err.splitlines()) == 1
+    assert not (out / "choice.json").exists() and not (out / "chosen-config.json").exists()
+    assert sorted(path.name for path in group.rglob("*")) == ["policy.npz", "seed1"]

@@ -238,10 +238,13 @@ def _walk_heldout(groups: dict, out: Path, args: argparse.Namespace, workers: in
     return records
 
 
-def _check_heldout_args(args: argparse.Namespace, labels: list[str], candidates: list[str]) -> None:
-    """One-line errors for options that do not fit together, before any episode is walked."""
+def _check_heldout_args(args: argparse.Namespace, groups: dict, candidates: list[str]) -> None:
+    """One-line errors for options that do not fit together, before any episode is walked or anything
+    written (``groups``: {label: [(seed, path)]})."""
     from krl.analysis.agent.heldout import check_candidates
+    from krl.analysis.agent.seed_group import check_seeded
 
+    labels = list(groups)
     if args.seed_group and not candidates:
         raise CliError("--seed-group needs --choose: it receives the chosen label's policies")
     if args.baseline_env and not args.baseline:
@@ -254,6 +257,21 @@ def _check_heldout_args(args: argparse.Namespace, labels: list[str], candidates:
         raise CliError(f"--baseline {args.baseline!r} is also a --choose candidate")
     try:
         check_candidates(labels, candidates)
+        for label in candidates if args.seed_group else ():
+            check_seeded(label, groups[label], Path(args.seed_group))
+    except ValueError as error:
+        raise CliError(str(error)) from None
+
+
+def _seed_group_copies(args: argparse.Namespace, groups: dict, chosen: str | None) -> list | None:
+    """The copies that put the ``chosen`` label's policies (of ``groups``) into ``--seed-group``, checked
+    (None: no seed group, or no choice that stands)."""
+    from krl.analysis.agent.seed_group import group_copies
+
+    if not args.seed_group or chosen is None:
+        return None
+    try:
+        return group_copies(chosen, groups[chosen], Path(args.seed_group))
     except ValueError as error:
         raise CliError(str(error)) from None
 
@@ -261,7 +279,6 @@ def _check_heldout_args(args: argparse.Namespace, labels: list[str], candidates:
 def run_heldout(args: argparse.Namespace) -> int:
     from krl.agent.policy import policy_artifacts
     from krl.analysis.agent.heldout import (
-        adopt_runs,
         against_baseline,
         choose,
         group_rows,
@@ -269,6 +286,7 @@ def run_heldout(args: argparse.Namespace) -> int:
         write_tables,
         write_verdict,
     )
+    from krl.analysis.agent.seed_group import copy_into_group
     from krl.util.parallel import usable_cores
     from krl.util.progress import progress_bar
 
@@ -279,7 +297,7 @@ def run_heldout(args: argparse.Namespace) -> int:
         raise CliError(f"--workers must be at least 1, got {workers}")
     groups = labelled_policies(args.policy, policy_artifacts)
     candidates = [label.strip() for label in args.choose.split(",")] if args.choose else []
-    _check_heldout_args(args, list(groups), candidates)
+    _check_heldout_args(args, groups, candidates)
     env, baseline_env = _heldout_env(args.env, "--env"), _heldout_env(args.baseline_env, "--baseline-env")
     out = Path(args.out)
     with progress_bar(not args.quiet, unit="episodes") as bar:
@@ -297,15 +315,16 @@ def run_heldout(args: argparse.Namespace) -> int:
                 )
             stands = all(check["holds"] for check in checks.values())
             choice["baseline"] = {"label": args.baseline, "checks": checks, "stands": stands}
+    chosen = choice["chosen"] if choice and choice.get("baseline", {}).get("stands", True) else None
+    copies = _seed_group_copies(args, groups, chosen)  # checked before anything is written
     written = write_tables(rows, records, out, choice, args.env)
-    if choice and choice.get("baseline", {}).get("stands", True):
-        chosen = groups[choice["chosen"]]
+    if chosen:
         try:
-            written |= write_choice(choice, chosen, out)
-            if args.seed_group:
-                written["seed_group"] = adopt_runs(choice["chosen"], chosen, Path(args.seed_group))
+            written |= write_choice(choice, groups[chosen], out)
         except ValueError as error:
             raise CliError(str(error)) from None
+        if copies is not None:
+            written["seed_group"] = copy_into_group(copies)
     elif choice:  # the choice does not stand against the baseline: recorded, nothing to train from
         written["choice"] = write_verdict(choice, out)
     emit({"rows": rows, "written": written} | ({"choice": choice} if choice else {}), args.json)

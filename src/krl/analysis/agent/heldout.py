@@ -275,38 +275,6 @@ def write_verdict(choice: dict[str, Any], out: Path) -> str:
     return str(out / "choice.json")
 
 
-RUN_FILES: tuple[str, ...] = ("config.json", "run.json", "progress.csv")
-"""The small files of a run folder (``krl agent train``'s) that join a seed group beside its policy."""
-
-
-def adopt_runs(label: str, files: list[tuple[int | None, Path]], group: Path) -> list[str]:
-    """Copy the chosen label's policies into the seed group ``group`` (``GROUP/seed<S>/policy.npz``, with
-    :data:`RUN_FILES` where the policy is a run folder's), the group that more seeds trained from
-    ``chosen-config.json`` join. A seed already there with the same policy is left as it is, so a rerun
-    copies nothing. Returns the seed folders written.
-
-    Raises:
-        ValueError: a policy without a seed, or a seed of ``group`` holding a different policy; nothing is
-            written then.
-    """
-    copies: list[tuple[Path, Path]] = []  # (target, source), each seed's policy first
-    for seed, policy in files:
-        if seed is None:
-            raise ValueError(f"{label!r} is one policy file without a seed: nothing to add to {group}")
-        folder = group / f"seed{seed}"
-        if (folder / "policy.npz").exists():
-            if file_sha256(folder / "policy.npz") != file_sha256(policy):
-                raise ValueError(f"{folder} holds another policy than {policy}: nothing copied to {group}")
-            continue
-        copies.append((folder / "policy.npz", policy))
-        if policy.name == "policy.npz":  # a run folder's
-            copies += [(folder / name, policy.parent / name) for name in RUN_FILES]
-    for target, source in reversed(copies):  # each policy.npz last: a seed folder with one is complete
-        if source.is_file():
-            write_atomic(target, source.read_bytes())
-    return sorted({str(target.parent) for target, _ in copies})
-
-
 def write_tables(
     rows: list[dict[str, Any]],
     records: dict[str, list[tuple[int | None, dict[str, Any]]]],
