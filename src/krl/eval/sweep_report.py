@@ -19,6 +19,7 @@ from krl.eval.summaries import (
     summarise_push,
     summarise_push_by_seed,
     summarise_push_directions,
+    summarise_push_left_right,
 )
 from krl.eval.tables import controller_table, rows_csv
 from krl.util.output import distinct_colours, figure_bytes, write_atomic
@@ -83,6 +84,24 @@ def push_direction_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> li
                 {"controller": label, "forces": _band_name(band), **row}
                 for row in summarise_push_directions(records)
             ]
+    return rows
+
+
+def push_left_right_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
+    """One row per (force band of :data:`PUSH_FORCE_BANDS`, controller) whose pushes went both left and right:
+    left success minus right with its 95 % interval (:func:`krl.eval.summaries.summarise_push_left_right`),
+    a seed group's attempts pooled over its seeds; ``forces`` names the band (:func:`_band_name`)."""
+    rows = []
+    for band in PUSH_FORCE_BANDS:
+        for label, groups in found.items():
+            records = [
+                record
+                for record in groups.get(PUSH_DIR, [])
+                if band is None or band[0] <= record["magnitude"] <= band[1]
+            ]
+            row = summarise_push_left_right(records)
+            if row is not None:
+                rows.append({"controller": label, "forces": _band_name(band), **row})
     return rows
 
 
@@ -182,6 +201,41 @@ def push_direction_markdown(rows: list[dict[str, Any]]) -> str:
                 ),
             ),
         ]
+    return "\n".join(lines) + "\n"
+
+
+def push_left_right_markdown(rows: list[dict[str, Any]]) -> str:
+    """A row per controller (named with how its directions were drawn), a column per force band of
+    :data:`PUSH_FORCE_BANDS` that has rows: left success minus right (successes/attempts each side), and the
+    difference's 95 % interval."""
+    bands = [
+        _band_name(band) for band in PUSH_FORCE_BANDS if any(r["forces"] == _band_name(band) for r in rows)
+    ]
+    draws = {r["controller"]: r["directions"] for r in rows if r["forces"] == "all"}
+    named = [
+        {**r, "controller": f"{r['controller']} ({draws.get(r['controller'], r['directions'])})"}
+        for r in rows
+    ]
+
+    def cell(r: dict[str, Any]) -> str:
+        sides = f"{r['left_successes']}/{r['left_attempts']} - {r['right_successes']}/{r['right_attempts']}"
+        interval = f"{r['difference_low']:+.2f} to {r['difference_high']:+.2f}"
+        return f"{r['difference']:+.2f} ({sides}), {interval}"
+
+    lines = [
+        "### Left minus right",
+        "",
+        "Success of the pushes to the left minus that of the pushes to the right (the quarters above), "
+        "(successes/attempts left - right), and the difference's 95 % interval: Newcombe's hybrid score "
+        "interval, from the two sides' Wilson intervals. It takes every attempt as independent, though a "
+        "seed group's seeds meet the same pushes. Beside each controller, how the directions were drawn: "
+        "`uniform` (each side's attempts are random in number) or `balanced` (`krl evaluate "
+        "--push-directions balanced`: equal attempts in each quarter, by design).",
+        "",
+        *controller_table(
+            named, "forces", bands, ["all forces" if b == "all" else f"forces {b} N" for b in bands], cell
+        ),
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -319,6 +373,11 @@ def write_sweep_sections(
         plot_push(out / "push.png", pushes)
         write_atomic(out / "push-direction.csv", rows_csv(directions))
         written += [str(out / name) for name in ("push.csv", "push.png", "push-direction.csv")]
+        sides = push_left_right_rows(found)
+        if sides:
+            parts.append(push_left_right_markdown(sides))
+            write_atomic(out / "push-left-right.csv", rows_csv(sides))
+            written.append(str(out / "push-left-right.csv"))
     frictions = friction_rows(found)
     if frictions:
         parts += [friction_markdown(frictions), "![success against ground friction](friction.png)\n"]
