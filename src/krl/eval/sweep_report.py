@@ -227,8 +227,10 @@ def push_left_right_markdown(rows: list[dict[str, Any]]) -> str:
         "",
         "Success of the pushes to the left minus that of the pushes to the right (the quarters above), "
         "(successes/attempts left - right), and the difference's 95 % interval: Newcombe's hybrid score "
-        "interval, from the two sides' Wilson intervals. It takes every attempt as independent, though a "
-        "seed group's seeds meet the same pushes. Beside each controller, how the directions were drawn: "
+        "interval, from the two sides' Wilson intervals. It takes every attempt as independent, though "
+        "every force and every seed of a group meets the same pushes (attempt a's time, point and "
+        "direction), so it is narrower than the pushes' own spread warrants. Beside each controller, how "
+        "the directions were drawn: "
         "`uniform` (each side's attempts are random in number) or `balanced` (`krl evaluate "
         "--push-directions balanced`: equal attempts in each quarter, by design).",
         "",
