@@ -13,6 +13,7 @@ import json
 import os
 import shutil
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -140,13 +141,21 @@ class Checkpointer(BaseCallback):
         run: the run record (``run.json``): seed, kernel SHA-256, ``initialized_from``.
         clock: the run's wall time.
         software: the versions recorded in the policy's metadata.
+        extra_state: what else ``state.json`` saves (a push curriculum's ceiling), called at each save.
     """
 
     def __init__(
-        self, out: Path, config: AgentConfig, run: dict[str, Any], clock: Clock, software: dict[str, str]
+        self,
+        out: Path,
+        config: AgentConfig,
+        run: dict[str, Any],
+        clock: Clock,
+        software: dict[str, str],
+        extra_state: Callable[[], dict[str, Any]] = dict,
     ) -> None:
         super().__init__()
         self.out, self.config, self.run, self.clock, self.software = out, config, run, clock, software
+        self.extra_state = extra_state
         self.last_checkpoint = -1
 
     def _on_training_start(self) -> None:
@@ -174,6 +183,7 @@ class Checkpointer(BaseCallback):
         if normaliser is not None:
             NormaliserState.of(normaliser).save(temporary / NORMALISER_FILE)
         state = {"num_timesteps": steps, "wall_seconds": round(self.clock(), 3), "final": final}
+        state.update(self.extra_state())
         (temporary / "state.json").write_text(json.dumps(state) + "\n")
         folder = directory / name
         if folder.exists():

@@ -20,10 +20,11 @@ from typing import Any
 from krl.control.commands import CommandParams
 from krl.control.filters import DEFAULT_ALPHA
 from krl.robots.a1.constants import FOOT_FRICTION, NUM_LEGS
-from krl.sim.pushes import PushDistribution
+from krl.sim.pushes import Push, PushDistribution
 from krl.sim.terrains import HEIGHTFIELD_MAX_HEIGHT_RANGE, MAX_GROUND_FRICTION, PYRAMIDS_STEP_HEIGHT_RANGE
 from krl.task.reward import EVALUATION_REWARD, RewardConfig, RewardConfigError
 from krl.task.waypoints import TARGET_DISTANCE
+from krl.util.thesis import THESIS_PUSH_MAGNITUDES
 
 
 class AgentConfigError(ValueError):
@@ -49,6 +50,12 @@ RHYTHM_RANGE: tuple[float, float] = (0.5, 2.0)
 """Default bounds of a driven gait clock's rate, in multiples of the kernel's own: kernel-base alone walks
 at every rate in them without a fall, its speed rising with the rate up to 2 (``krl agent rhythm``,
 docs/agent-gait.md)."""
+
+PUSH_CURRICULUM_LIMIT: float = max(THESIS_PUSH_MAGNITUDES)
+"""The largest push a curriculum may train with [N]: the largest of the thesis's sweep (Table 5.5)."""
+
+PUSH_CURRICULUM_LIMIT_DELTA_V: float = Push(0.0, [PUSH_CURRICULUM_LIMIT, 0, 0], [0, 0, 0]).delta_v
+"""The speed such a push gives the free robot [m/s]."""
 
 SYMMETRY_MODES: tuple[str, ...] = ("none", "augment", "loss")
 """The values of :attr:`PPOConfig.symmetry` (:mod:`krl.agent.symmetric_ppo` describes each)."""
@@ -166,6 +173,18 @@ class EnvConfig:
     """Time between pushes ~ U(low, high) [s]."""
     push_magnitude: tuple[float, float] = PushDistribution.magnitude
     """Push force ~ U(low, high) [N], for 0.3 s, at a random trunk point, directed slightly upwards."""
+    push_curriculum: bool = False
+    """The pushes' upper magnitude grows as the agent survives them (ours, :mod:`krl.agent.curriculum`):
+    from ``push_magnitude``'s high, by ``push_curriculum_step`` after each rollout whose pushes were
+    survived at ``push_curriculum_raise`` or more, back by a step below ``push_curriculum_lower``."""
+    push_curriculum_max: float = PUSH_CURRICULUM_LIMIT
+    """The curriculum's largest upper magnitude [N], at most :data:`PUSH_CURRICULUM_LIMIT`."""
+    push_curriculum_step: float = 50.0
+    """The curriculum's step [N]."""
+    push_curriculum_raise: float = 0.9
+    """Fraction of a rollout's pushes survived at or above which the ceiling rises."""
+    push_curriculum_lower: float = 0.7
+    """Fraction of a rollout's pushes survived below which the ceiling falls."""
     reward: RewardConfig = EVALUATION_REWARD
     """The reward trained on (:mod:`krl.task.reward`): in a config file a name of
     :data:`krl.task.reward.REWARDS` (``rp``: Table 4.8 + roll/pitch, agent-rp; ``base``: Table 4.8,
@@ -207,8 +226,26 @@ class EnvConfig:
         if self.push_interval[0] <= 0:
             raise AgentConfigError("push_interval must be > 0 s")
         _range("push_magnitude", self.push_magnitude)
+        self._check_curriculum()
         if not isinstance(self.reward, RewardConfig):
             raise AgentConfigError(f"reward must be a reward configuration, got {self.reward!r}")
+
+    def _check_curriculum(self) -> None:
+        _positive("push_curriculum_step", self.push_curriculum_step)
+        _range(
+            "push_curriculum_lower, push_curriculum_raise",
+            (self.push_curriculum_lower, self.push_curriculum_raise),
+        )
+        if self.push_curriculum_raise > 1:
+            raise AgentConfigError(f"push_curriculum_raise must be <= 1, got {self.push_curriculum_raise!r}")
+        high, limit = self.push_magnitude[1], PUSH_CURRICULUM_LIMIT
+        maximum = self.push_curriculum_max
+        if not (isinstance(maximum, (int, float)) and (not self.push_curriculum or high <= maximum <= limit)):
+            raise AgentConfigError(
+                f"push_curriculum_max must be in [push_magnitude's high {high:g}, {limit:g}] N (the largest "
+                f"push the thesis measures, {PUSH_CURRICULUM_LIMIT_DELTA_V:.1f} m/s on the free robot), "
+                f"got {maximum!r}"
+            )
 
 
 CORE_FEATURES: tuple[str, ...] = (

@@ -54,6 +54,10 @@ EPISODE_INFO_KEYS: tuple[str, ...] = (
 """Keys of ``info["episode"]`` on an episode's last step (``r``, ``l``, ``t`` as SB3's Monitor)."""
 
 
+PUSH_VERDICT_TIME: float = 2.0
+"""A push is survived when the robot has not fallen this long after its start [s] (the push lasts 0.3 s)."""
+
+
 class ResidualEnvBatch:
     """N residual environments without automatic resets.
 
@@ -80,6 +84,8 @@ class ResidualEnvBatch:
         self.sims: SimBatch | None = None
         self.tasks: list[WaypointTask | None] = [None] * num_envs
         self.push_schedules: list[PushSchedule | None] = [None] * num_envs
+        self.push_watch = np.full(num_envs, np.nan)
+        """Start time [s] of each environment's latest push whose outcome is not known yet, else NaN."""
         self.episodes_on_terrain = np.zeros(num_envs, dtype=np.int64)
         self.episode_reward = np.zeros(num_envs)
         self.episode_steps = np.zeros(num_envs, dtype=np.int64)
@@ -154,6 +160,7 @@ class ResidualEnvBatch:
             task.reset(state.base_pos[:2])
             self.tasks[index] = task
             self.push_schedules[index] = PushSchedule(self.pushes, rng) if env.pushes else None
+            self.push_watch[index] = np.nan
             self.episode_reward[index] = 0.0
             self.episode_steps[index] = 0
             for sums in self.episode_terms.values():
@@ -165,6 +172,14 @@ class ResidualEnvBatch:
             self.stance.reset(rows)
         self._prepare(self.states.rows(rows), rows)
         return self._observe(rows)
+
+    def set_push_ceiling(self, newtons: float) -> None:
+        """Draw every push from now on with a magnitude ~ U(``push_magnitude``'s low, ``newtons``) [N]
+        (a push curriculum's ceiling, :mod:`krl.agent.curriculum`), the episodes under way included."""
+        self.pushes = replace(self.pushes, magnitude=(self.pushes.magnitude[0], float(newtons)))
+        for schedule in self.push_schedules:
+            if schedule is not None:
+                schedule.distribution = self.pushes
 
     # --- stepping ----------------------------------------------------------------------------------
 
@@ -192,11 +207,15 @@ class ResidualEnvBatch:
         q_target = self.controller.joint_targets(actions)
         commands = self.controller.command.copy()
         sims = self.sims
-        for sim, schedule in zip(sims.sims, self.push_schedules, strict=True):
+        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        for index, (sim, schedule) in enumerate(zip(sims.sims, self.push_schedules, strict=True)):
             if schedule is not None:
                 push = schedule.due(sim.time)
                 if push is not None:
                     sim.push(push)
+                    if not np.isnan(self.push_watch[index]):  # a push before the last one's verdict
+                        infos[index]["push_survived"] = True
+                    self.push_watch[index] = push.start_time
         states = sims.step(q_target)
         self.states = states
         steps = [task.after_step(xy) for task, xy in zip(self.tasks, states.base_pos[:, :2], strict=True)]
@@ -217,7 +236,7 @@ class ResidualEnvBatch:
             if sums is None:
                 sums = self.episode_terms[name] = np.zeros(self.num_envs)
             sums += values
-        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        self._judge_pushes(states.time, terminated, infos)
         for index in np.flatnonzero(terminated | truncated):
             infos[index]["episode"] = {
                 "r": float(self.episode_reward[index]),
@@ -230,6 +249,16 @@ class ResidualEnvBatch:
                 "terms": {name: float(sums[index]) for name, sums in self.episode_terms.items()},
             }
         return observations, rewards, terminated, truncated, infos
+
+    def _judge_pushes(self, times: np.ndarray, fallen: np.ndarray, infos: list[dict[str, Any]]) -> None:
+        """``info["push_survived"]``: False where the robot fell within :data:`PUSH_VERDICT_TIME` of its
+        latest push's start, True once that time passed without a fall."""
+        watched = ~np.isnan(self.push_watch)
+        failed = watched & fallen
+        survived = watched & ~fallen & (times - self.push_watch >= PUSH_VERDICT_TIME)
+        for index in np.flatnonzero(failed | survived):
+            infos[index]["push_survived"] = bool(survived[index])
+            self.push_watch[index] = np.nan
 
 
 class A1ResidualEnv(gym.Env):
@@ -392,6 +421,10 @@ class ResidualVecEnv(BatchVecEnv):
 
     def close(self) -> None:
         pass
+
+    def set_push_ceiling(self, newtons: float) -> None:
+        """:meth:`ResidualEnvBatch.set_push_ceiling` of the batch."""
+        self.batch.set_push_ceiling(newtons)
 
     def seed(self, seed: int | None = None):
         base = self._seed if seed is None else seed

@@ -81,6 +81,8 @@ def _worker(
                 connection.send(env.reset())
             elif command == "seed":
                 connection.send(env.seed(payload))
+            elif command == "push_ceiling":
+                connection.send(env.set_push_ceiling(payload))
             elif command == "close":
                 break
     except (EOFError, KeyboardInterrupt):
@@ -189,6 +191,12 @@ class ProcessVecEnv(BatchVecEnv):
         dones = np.concatenate([r[2] for r in results])
         infos = [info for r in results for info in r[3]]
         return observations, rewards, dones, infos
+
+    def set_push_ceiling(self, newtons: float) -> None:
+        """Every worker's pushes from now on up to ``newtons`` [N] (a push curriculum's ceiling)."""
+        for k in range(len(self._connections)):
+            self._send(k, ("push_ceiling", float(newtons)))
+        self._gather()
 
     def seed(self, seed: int | None = None):
         base = 0 if seed is None else seed

@@ -46,6 +46,7 @@ from threadpoolctl import threadpool_limits
 from krl.agent.callbacks import Checkpointer, Clock, EpisodeLog, ProgressBar, StopOnSignal
 from krl.agent.checkpoint import Checkpoint, read_state
 from krl.agent.config import AgentConfig
+from krl.agent.curriculum import PushCurriculum, saved_ceiling
 from krl.agent.network import SharedExtractor
 from krl.agent.process_vec_env import ProcessVecEnv
 from krl.agent.run_folder import (
@@ -228,7 +229,10 @@ def train(
             _start_from(model, start)
             log(f"starting {out} from {run['initialized_from']['run']} ({start.num_timesteps} env steps)")
         model.set_logger(configure(str(out), ["csv", "tensorboard"]))
-        return _learn(model, out, config, run, total, Clock(wall_before), progress, log, callbacks)
+        curriculum = _curriculum(config, venv, latest)
+        return _learn(
+            model, out, config, run, total, Clock(wall_before), progress, log, curriculum, callbacks
+        )
     finally:
         venv.close()
 
@@ -242,6 +246,16 @@ def training_device(asked: str) -> str:
     if asked == "cuda" and not available:
         raise TrainingError("device cuda asked for, but PyTorch sees no CUDA device")
     return "cuda" if asked == "cuda" or (asked == "auto" and available) else "cpu"
+
+
+def _curriculum(config: AgentConfig, venv: ProcessVecEnv, latest: Path | None) -> PushCurriculum | None:
+    """The run's push curriculum (None without one), its ceiling set in ``venv``: the one ``latest``
+    saved, where a run resumes."""
+    if not config.env.push_curriculum:
+        return None
+    ceiling = saved_ceiling(latest, config.env)
+    venv.set_push_ceiling(ceiling)
+    return PushCurriculum(config.env, ceiling)
 
 
 def _summary(out: Path, env_steps: int, wall_seconds: float) -> dict[str, Any]:
@@ -337,17 +351,21 @@ def _learn(
     clock: Clock,
     progress: bool,
     log,
+    curriculum: PushCurriculum | None = None,
     callbacks: Sequence[BaseCallback] = (),
 ) -> dict[str, Any]:
-    """Train ``model`` to ``total`` env steps with the logging, checkpointing and progress callbacks;
-    Ctrl-C or SIGTERM saves a checkpoint and re-raises. Returns the summary of :func:`train`."""
-    checkpointer = Checkpointer(out, config, run, clock, software())
+    """Train ``model`` to ``total`` env steps with the logging, (push ``curriculum``,) checkpointing and
+    progress callbacks; Ctrl-C or SIGTERM saves a checkpoint and re-raises. Returns the summary of
+    :func:`train`."""
+    curricula = [] if curriculum is None else [curriculum]
+    extra_state = dict if curriculum is None else curriculum.state
+    checkpointer = Checkpointer(out, config, run, clock, software(), extra_state)
     bar = ProgressBar(progress)
     try:
         with signals_raise((signal.SIGTERM,)), threadpool_limits(1, user_api="blas"):
             model.learn(
                 total - model.num_timesteps,
-                callback=[EpisodeLog(clock), checkpointer, bar, StopOnSignal(), *callbacks],
+                callback=[EpisodeLog(clock), *curricula, checkpointer, bar, StopOnSignal(), *callbacks],
                 reset_num_timesteps=model.num_timesteps == 0,  # a resumed model counts on
             )
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: keep what was learnt, then stop
