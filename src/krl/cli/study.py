@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import math
 import multiprocessing
 import os
 import shlex
 import sqlite3
 import sys
+import warnings
 from pathlib import Path
 
+from krl.agent.studies.storage import masked
 from krl.cli.common import CliError, emit, labelled_policies, parse_ints
 
 
@@ -48,18 +51,24 @@ def _settings(args: argparse.Namespace, design):
 
 
 def _work(
-    name: str, settings, out: str, url: str, heartbeat: float, quiet: bool, parent: int | None = None
+    name: str, settings, out: str, url: str, heartbeat: float, log_to: str, parent: int | None = None
 ) -> None:
     """One study process: the parent's, or a job the parent (pid ``parent``) spawned, which leaves Ctrl-C
     to the parent and dies with it; SIGTERM, from the start, stops such a job as Ctrl-C stops the parent
-    (its trial is queued again), and it leaves the report to the parent (no traceback)."""
+    (its trial is queued again), and it leaves the report to the parent (no traceback). Its progress
+    lines and bars go where ``log_to`` says (:func:`_log`)."""
     from krl.agent.studies.designs import STUDIES
     from krl.agent.studies.runner import work
     from krl.util.parallel import die_with_parent, signals_raise
 
     if parent is not None:
         die_with_parent(parent)
-    log = (lambda _: None) if quiet else print
+    quiet = log_to == "quiet"
+
+    def log(line: str) -> None:
+        if not quiet:
+            print(line, file=sys.stderr if log_to == "stderr" else sys.stdout)
+
     try:
         with signals_raise():  # the parent's are already so; a job's SIGTERM would otherwise kill it
             work(STUDIES[name], settings, Path(out), url, heartbeat, log=log, progress=not quiet)
@@ -115,11 +124,86 @@ def _alternative_measurement(design, settings, out: Path, command: str) -> list[
     return write_fixed_command_table(fixed_command_runs(config), out, command)
 
 
+def _database_errors() -> tuple[type[BaseException], ...]:
+    """The errors of a storage that opened but fails later (a lost connection, a file gone bad)."""
+    from sqlalchemy.exc import SQLAlchemyError
+
+    return (SQLAlchemyError, sqlite3.Error)
+
+
+def _log(args: argparse.Namespace) -> str:
+    """Where a study's progress lines go: ``quiet`` (nowhere), ``stderr`` with ``--json`` (stdout holds
+    the JSON alone) or ``stdout``."""
+    return "quiet" if args.quiet else "stderr" if args.json else "stdout"
+
+
+def _check_run_options(args: argparse.Namespace) -> None:
+    """One-line errors for a study's run options that every trial would fail on, before any is created."""
+    if not (math.isfinite(args.heartbeat) and args.heartbeat > 0):
+        raise CliError(f"--heartbeat must be a positive number of seconds, got {args.heartbeat}")
+    if args.jobs is not None and args.jobs < 1:
+        raise CliError(f"--jobs must be at least 1, got {args.jobs}")
+
+
+def _check_storage(url: str, heartbeat: float) -> None:
+    """Open the study's storage once, before anything is trained or spawned: a bad one (malformed URL, no
+    driver, refused connection, missing or read-only folder, corrupt file, a foreign SQLite file) is one
+    line naming it, password masked."""
+    from krl.agent.studies.storage import check_study_database, storage_errors, storage_failure
+    from krl.util.optuna_storage import study_storage
+
+    try:
+        check_study_database(url)
+        with warnings.catch_warnings():  # Optuna's experimental heartbeat, as open_stage silences it
+            warnings.simplefilter("ignore")
+            study_storage(url, heartbeat).remove_session()
+    except ValueError as error:
+        raise CliError(str(error)) from None
+    except storage_errors() as error:
+        raise CliError(storage_failure(url, error)) from None
+
+
+def _snapshot(design, out: Path, url: str, args: argparse.Namespace) -> int:
+    """``--snapshot DIR``: copy what resuming the study needs into DIR."""
+    from krl.agent.studies.snapshot import snapshot_study
+
+    try:
+        emit(snapshot_study(out, url, Path(args.snapshot)), args.json)
+    except (FileNotFoundError, ValueError, sqlite3.Error) as error:
+        raise CliError(f"cannot snapshot study {design.name}: {masked(str(error))}") from None
+    return 0
+
+
+def _report(design, settings, out: Path, url: str, args: argparse.Namespace) -> int:
+    """``--report``: the tables and figures of what has finished, with the settings the study started
+    with unless others are given (then they must be the same)."""
+    from krl.agent.studies.report import write_study_report
+    from krl.agent.studies.runner import stored_settings
+    from krl.agent.studies.storage import storage_errors, storage_failure
+
+    try:
+        stored = stored_settings(design, url)
+    except ValueError as error:  # a foreign SQLite file: nothing written to it
+        raise CliError(str(error)) from None
+    except storage_errors() as error:
+        raise CliError(storage_failure(url, error)) from None
+    if stored is None:
+        raise CliError(f"study {design.name} has not been started in {masked(url)}: nothing to report")
+    if not any(getattr(args, name) is not None for name in SETTINGS_OPTIONS):
+        settings = stored
+    command = "krl " + masked(shlex.join(args.argv))
+    report_out = Path(args.report_out or out / "report")
+    extra = _alternative_measurement(design, settings, report_out, command)
+    emit(write_study_report(design, settings, url, report_out, command, extra), args.json)
+    return 0
+
+
 def run_study(args: argparse.Namespace) -> int:
     from krl.agent.studies.designs import STUDIES
-    from krl.agent.studies.report import open_stages, study_status, trial_errors, write_study_report
-    from krl.agent.studies.runner import StudyError, stored_settings
-    from krl.agent.studies.snapshot import DATABASE, snapshot_study
+    from krl.agent.studies.report import open_stages, study_status, trial_errors
+    from krl.agent.studies.runner import StudyError
+    from krl.agent.studies.snapshot import DATABASE
+    from krl.agent.studies.storage import storage_failure
     from krl.util.parallel import usable_cores
 
     if args.name == "level-base":
@@ -128,33 +212,23 @@ def run_study(args: argparse.Namespace) -> int:
         raise CliError(f"unknown study {args.name!r}; known: {', '.join([*STUDIES, 'level-base'])}")
     design = STUDIES[args.name]
     settings = _settings(args, design)
+    _check_run_options(args)
     out = Path(args.out or f"runs/agent-studies/{design.name}")
     url = args.storage or f"sqlite:///{(out / DATABASE).resolve()}"
     jobs = args.jobs or max(1, usable_cores() // max(1, settings.workers))
+    if args.snapshot:
+        return _snapshot(design, out, url, args)
     try:
-        if args.snapshot:
-            try:
-                emit(snapshot_study(out, url, Path(args.snapshot)), args.json)
-            except (FileNotFoundError, sqlite3.Error) as error:
-                raise CliError(f"cannot snapshot study {design.name}: {error}") from None
-            return 0
         if args.report:
-            stored = stored_settings(design, url)
-            if stored is None:
-                raise CliError(f"study {design.name} has not been started in {url}: nothing to report")
-            if not any(getattr(args, name) is not None for name in SETTINGS_OPTIONS):
-                settings = stored
-            command = "krl " + shlex.join(args.argv)
-            report_out = Path(args.report_out or out / "report")
-            extra = _alternative_measurement(design, settings, report_out, command)
-            written = write_study_report(design, settings, url, report_out, command, extra)
-            emit(written, args.json)
-            return 0
+            return _report(design, settings, out, url, args)
         out.mkdir(parents=True, exist_ok=True)
-        _run_jobs(design.name, settings, out, url, args.heartbeat, args.quiet, jobs)
+        _check_storage(url, args.heartbeat)
+        _run_jobs(design.name, settings, out, url, args.heartbeat, _log(args), jobs)
+        stages = open_stages(design, settings, url)
     except StudyError as error:
         raise CliError(str(error)) from None
-    stages = open_stages(design, settings, url)
+    except _database_errors() as error:
+        raise CliError(storage_failure(url, error)) from None
     emit(study_status(design, settings, url, stages), args.json)
     errors = trial_errors(stages)
     if errors:  # a pipeline must not go on from a study whose runs did not finish
@@ -165,22 +239,23 @@ def run_study(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_jobs(name: str, settings, out: Path, url: str, heartbeat: float, quiet: bool, jobs: int) -> None:
-    """``jobs`` study processes: this one and ``jobs - 1`` spawned. Ctrl-C or SIGTERM of this one, while
-    it trains or waits for the others, stops every job: each checkpoints its trial and queues it again."""
+def _run_jobs(name: str, settings, out: Path, url: str, heartbeat: float, log_to: str, jobs: int) -> None:
+    """``jobs`` study processes: this one (its lines going where ``log_to`` says) and ``jobs - 1`` spawned
+    (quiet). Ctrl-C or SIGTERM of this one, while it trains or waits for the others, stops every job: each
+    checkpoints its trial and queues it again."""
     from krl.util.optuna_storage import SQLITE_LOCK_TIMEOUT
     from krl.util.parallel import signals_raise, stop_processes
 
     spawn = multiprocessing.get_context("spawn")
     others = [
-        spawn.Process(target=_work, args=(name, settings, str(out), url, heartbeat, True, os.getpid()))
+        spawn.Process(target=_work, args=(name, settings, str(out), url, heartbeat, "quiet", os.getpid()))
         for _ in range(jobs - 1)
     ]
     with signals_raise():
         for process in others:
             process.start()
         try:
-            _work(name, settings, str(out), url, heartbeat, quiet)
+            _work(name, settings, str(out), url, heartbeat, log_to)
             for process in others:
                 process.join()
         except KeyboardInterrupt:

@@ -28,6 +28,7 @@ from krl.agent.studies.runner import (
     pruner,
     pruner_rule,
 )
+from krl.agent.studies.storage import masked
 from krl.util.output import csv_bytes, distinct_colours, figure_bytes, write_atomic
 
 THESIS_FINDINGS: dict[str, str] = {
@@ -231,9 +232,9 @@ def study_status(
     stages = stages or open_stages(design, settings, url)
     if not design.is_search:
         planned = len(plan_entries(design, settings, LIST))
-        return {"study": design.name, "storage": url, LIST: counts(stages[LIST], planned)}
+        return {"study": design.name, "storage": masked(url), LIST: counts(stages[LIST], planned)}
     search = stages[SEARCH]
-    status = {"study": design.name, "storage": url, SEARCH: counts(search, settings.trials)}
+    status = {"study": design.name, "storage": masked(url), SEARCH: counts(search, settings.trials)}
     best = best_trials(search, settings.top)
     status[CONFIRM] = counts(stages[CONFIRM], settings.top * len(settings.seeds))
     status["best"] = [{"trial": t.number, "targets_reached": t.value, "params": t.params} for t in best]
@@ -346,7 +347,7 @@ def write_study_report(
     out.mkdir(parents=True, exist_ok=True)
     lines = [f"# Agent study {design.name} ({design.title})", "", _budget_line(design, settings), ""]
     if command:
-        lines += ["Made by:", "", f"    {command}", ""]
+        lines += ["Made by:", "", f"    {masked(command)}", ""]
     lines += [f"The thesis: {THESIS_FINDINGS.get(design.name, '')}", ""]
     written = []
     if design.is_search:

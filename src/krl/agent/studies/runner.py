@@ -41,6 +41,7 @@ from typing import Any
 from stable_baselines3.common.callbacks import BaseCallback
 
 from krl.agent.studies.designs import StudyDesign, merged
+from krl.agent.studies.storage import check_study_database, masked
 from krl.util.optuna_storage import study_storage
 
 SEARCH, CONFIRM, LIST = "search", "confirm", "list"
@@ -93,6 +94,9 @@ class StudySettings:
     @classmethod
     def of(cls, design: StudyDesign, **given: Any) -> StudySettings:
         """The design's thesis settings with the ``given`` ones (None: not given) in their place."""
+        for key in ("trials", "top"):  # recorded by the study: a bad one would be locked in
+            if given.get(key) is not None and given[key] < 1:
+                raise StudyError(f"--{key} must be at least 1, got {given[key]}")
         thesis = cls(design.budget, design.seeds, design.trials, design.top, design.confirm_budget)
         return replace(thesis, **{key: value for key, value in given.items() if value is not None})
 
@@ -103,6 +107,10 @@ class StudySettings:
             raise StudyError(f"seeds must be distinct and at least one, got {list(self.seeds)}")
         if self.sampler not in ("random", "tpe") or self.pruner not in ("median", "halving", "none"):
             raise StudyError(f"unknown sampler {self.sampler!r} or pruner {self.pruner!r}")
+        if self.workers < 1 or (self.num_envs is not None and self.num_envs < 1):  # every trial would fail
+            raise StudyError(
+                f"--workers and --num-envs must be at least 1, got {self.workers} and {self.num_envs}"
+            )
 
     def stored(self) -> dict[str, Any]:
         """What a study records of its settings and refuses to change (not how its trials train)."""
@@ -121,6 +129,7 @@ def stored_settings(design: StudyDesign, url: str) -> StudySettings | None:
 
     if url.startswith("sqlite:///") and not Path(url.removeprefix("sqlite:///")).exists():
         return None
+    check_study_database(url)  # Optuna would create its tables in a foreign file
     optuna.logging.set_verbosity(optuna.logging.ERROR)
     try:
         study = optuna.load_study(study_name=design.name, storage=study_storage(url))
@@ -196,7 +205,7 @@ def open_stage(design: StudyDesign, settings: StudySettings, stage: str, url: st
     elif stored != settings.stored():
         changed = sorted(key for key, value in settings.stored().items() if stored.get(key) != value)
         raise StudyError(
-            f"study {design.name} in {url} was started with other settings ({', '.join(changed)}: "
+            f"study {design.name} in {masked(url)} was started with other settings ({', '.join(changed)}: "
             f"{', '.join(f'{key} {stored.get(key)!r}' for key in changed)}); give the same, or another --out"
         )
     return study

@@ -70,7 +70,11 @@ def snapshot_study(out: Path, url: str, dest: Path) -> dict[str, Any]:
 
     Raises:
         FileNotFoundError: ``out`` holds no trial run folder and the storage no SQLite file to copy.
+        ValueError: ``dest`` is the study's own folder (its run folders would be cut down to the snapshot's
+            files, TensorBoard's deleted).
     """
+    if dest.resolve() == out.resolve():
+        raise ValueError(f"--snapshot {dest} is the study's own folder (--out): give another folder")
     database = None
     if url.startswith("sqlite:///"):
         source = Path(url.removeprefix("sqlite:///"))
