@@ -1,0 +1,103 @@
+#!/usr/bin/env bash
+# agent-robust, a mirror-symmetric, push-hardened agent (issue 45), as docs/agent-robust.md pre-registers it:
+#   1. the pilot: agent-gait-ground's recipe with symmetry augment and with loss, seed 150, to 4e6 env
+#      steps side by side; the held-out rule chooses S, and the winner's run goes on as sym's seed 150;
+#   2. the arms, 2e7 env steps, seeds 150 and 215, two runs at a time: sym, curriculum, sym-curriculum, and
+#      rp-sym (agent-rp's recipe with S) (about 12 h on 2 cores);
+#   3. the held-out rule among sym, curriculum and sym-curriculum against agent-gait-ground's seeds 150 and
+#      215; where the choice stands, its seeds 345 and 556: agent-robust's four seeds;
+#   4. every run on the thesis and harder courses, the default and the balanced push sweeps and the friction
+#      sweep, beside agent-gait-ground, agent-rp and the expert, then the report.
+# Every step resumes where it stopped and a finished one is not redone: after an interruption run this
+# again. One SIGTERM (or Ctrl-C) to this script passes on to the running commands, which checkpoint.
+#
+#   nohup examples/robust/agent-robust.sh > runs/agent-robust.log 2>&1 &
+#
+# RUNS (default runs) holds the runs, EVAL (default evaluations/robust) the evaluation records, REPORT
+# (default docs/results/robust) the tables and plots.
+set -euo pipefail
+HERE=$(dirname "$0")
+ROOT=$(cd "$HERE/../.." && pwd)
+RUNS=${RUNS:-runs}
+EVAL=${EVAL:-evaluations/robust}
+REPORT=${REPORT:-docs/results/robust}
+R=$RUNS/robust
+ROBUST=$RUNS/agent-robust
+PILOT_STEPS=4000000
+BASELINE="$ROOT/src/krl/agent/policies/agent-gait-ground/seed[12]*.npz"  # agent-gait-ground's 150, 215
+GROUND_CONFIG=$ROOT/training/agent-gait-ground-seed345/config.json
+
+# shellcheck source=../gait/together.sh
+source "$HERE/../gait/together.sh"
+
+# 1. the pilot, and S
+if [ ! -e "$R/heldout-pilot/choice.json" ]; then
+  together \
+    "krl agent train --out $R/pilot-augment-seed150 --seed 150 --config $HERE/gait-ground-augment.json \
+--steps $PILOT_STEPS --quiet" \
+    "krl agent train --out $R/pilot-loss-seed150 --seed 150 --config $HERE/gait-ground-loss.json \
+--steps $PILOT_STEPS --quiet"
+  together "krl agent heldout --policy augment=$R/pilot-augment-seed150 --policy loss=$R/pilot-loss-seed150 \
+--choose augment,loss --episodes 32 --out $R/heldout-pilot --quiet"
+fi
+S=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["chosen"])' "$R/heldout-pilot/choice.json")
+echo "the pilot's symmetry: $S"
+if [ -d "$R/pilot-$S-seed150" ] && [ ! -e "$R/sym-seed150" ]; then mv "$R/pilot-$S-seed150" "$R/sym-seed150"; fi
+
+# the arms' configs: S on agent-gait-ground's recipe (the pilot's chosen config), with the curriculum, and
+# on agent-rp's recipe
+mkdir -p "$R/configs"
+python3 - "$R" "$S" "$HERE" "$ROOT" <<'PY'
+import json, sys
+runs, symmetry, here, root = sys.argv[1:]
+def write(name, config):
+    with open(f"{runs}/configs/{name}.json", "w") as file:
+        json.dump(config, file, indent=2)
+sym = json.load(open(f"{runs}/heldout-pilot/chosen-config.json"))
+write("sym", sym)
+curriculum = json.load(open(f"{here}/gait-ground-curriculum.json"))
+write("sym-curriculum", {**sym, "env": curriculum["env"]})
+rp = json.load(open(f"{root}/training/agent-rp-seed150/config.json"))
+write("rp-sym", {**rp, "ppo": {**rp["ppo"], "symmetry": symmetry}})
+PY
+
+# 2. the arms, two runs at a time
+train() { echo "krl agent train --out $R/$1-seed$2 --seed $2 --config $3 --quiet"; }
+together "$(train sym 150 "$R/configs/sym.json")" "$(train sym 215 "$R/configs/sym.json")"
+together "$(train curriculum 150 "$HERE/gait-ground-curriculum.json")" \
+  "$(train curriculum 215 "$HERE/gait-ground-curriculum.json")"
+together "$(train sym-curriculum 150 "$R/configs/sym-curriculum.json")" \
+  "$(train sym-curriculum 215 "$R/configs/sym-curriculum.json")"
+together "$(train rp-sym 150 "$R/configs/rp-sym.json")" "$(train rp-sym 215 "$R/configs/rp-sym.json")"
+
+# 3. the rule: on the broad push ground, against agent-gait-ground's seeds 150 and 215
+together "krl agent heldout --policy 'baseline=$BASELINE' --policy 'sym=$R/sym-seed*' \
+--policy 'curriculum=$R/curriculum-seed*' --policy 'sym-curriculum=$R/sym-curriculum-seed*' \
+--env $HERE/broad-pushes.json --choose sym,curriculum,sym-curriculum --baseline baseline \
+--baseline-env $GROUND_CONFIG --episodes 32 --out $R/heldout-robust \
+--seed-group $ROBUST --quiet"
+stands=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["baseline"]["stands"])' \
+  "$R/heldout-robust/choice.json")
+echo "the choice stands against agent-gait-ground: $stands"
+controllers=""
+for arm in sym curriculum sym-curriculum rp-sym; do controllers+=" --controller 'agent:$R/$arm-seed*'"; done
+if [ "$stands" = "True" ]; then
+  together \
+    "krl agent train --out $ROBUST/seed345 --seed 345 --config $R/heldout-robust/chosen-config.json --quiet" \
+    "krl agent train --out $ROBUST/seed556 --seed 556 --config $R/heldout-robust/chosen-config.json --quiet"
+  controllers="--controller agent:$ROBUST$controllers"
+fi
+
+# 4. the evaluation, the baselines' records copied from agent-gait-ground's (same files by hash)
+for baseline in agent-gait-ground agent-rp expert-stance0.2; do
+  if [ -d "$ROOT/evaluations/gait/$baseline" ] && [ ! -e "$EVAL/$baseline" ]; then
+    mkdir -p "$EVAL" && cp -r "$ROOT/evaluations/gait/$baseline" "$EVAL/$baseline"
+  fi
+done
+controllers+=" --controller agent:gait-ground --controller agent --controller expert"
+together "krl evaluate $controllers --course thesis --course harder --push-sweep --attempts 50 \
+--friction-sweep --out $EVAL --quiet"
+together "krl evaluate $controllers --push-sweep --push-directions balanced --attempts 48 \
+--out $EVAL-balanced --quiet"
+together "krl report --results $EVAL --out $REPORT"
+together "krl report --results $EVAL-balanced --out $REPORT-balanced"

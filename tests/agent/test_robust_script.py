@@ -1,0 +1,76 @@
+"""examples/robust/agent-robust.sh against a stand-in ``krl`` that logs its arguments: the pilot and its
+choice, the winner's run going on as sym's seed 150, the arms' configs and runs in order, the held-out
+rule deciding whether agent-robust's seeds train, and both evaluations."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[2] / "examples" / "robust" / "agent-robust.sh"
+
+STAND_IN = r"""#!/usr/bin/env bash
+# logs its arguments; heldout --choose writes a choice (the pilot's: $PILOT_CHOICE); train makes its --out
+echo "$*" >> "$LOG"
+out=$(echo "$*" | sed -E 's/.*--out ([^ ]+).*/\1/')
+if [ "$1 $2" = "agent train" ]; then mkdir -p "$out"; fi
+if [ "$1 $2" = "agent heldout" ]; then
+  mkdir -p "$out"
+  chosen=sym-curriculum; case "$out" in *pilot) chosen=$PILOT_CHOICE;; esac
+  echo "{\"chosen\": \"$chosen\", \"baseline\": {\"stands\": $STANDS}}" > "$out/choice.json"
+  echo "{\"ppo\": {\"symmetry\": \"$PILOT_CHOICE\"}, \"env\": {\"pushes\": true}}" > "$out/chosen-config.json"
+fi
+"""
+
+
+def _run(tmp_path: Path, stands: str) -> list[str]:
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    (bin_dir / "krl").write_text(STAND_IN)
+    (bin_dir / "krl").chmod(0o755)
+    env = os.environ | {
+        "PATH": f"{bin_dir}:{os.environ['PATH']}",
+        "LOG": str(tmp_path / "krl.log"),
+        "PILOT_CHOICE": "loss",
+        "STANDS": stands,
+        "RUNS": "runs",
+        "EVAL": "evals",
+        "REPORT": "report",
+    }
+    subprocess.run(["bash", str(SCRIPT)], cwd=tmp_path, env=env, check=True, capture_output=True, timeout=60)
+    return (tmp_path / "krl.log").read_text().splitlines()
+
+
+def _index(lines: list[str], *parts: str) -> int:
+    return next(i for i, line in enumerate(lines) if all(part in line for part in parts))
+
+
+@pytest.mark.parametrize("stands", ["true", "false"])
+def test_the_pipeline_runs_the_pre_registered_steps_in_order(tmp_path, stands):
+    lines = _run(tmp_path, stands)
+    pilot = _index(lines, "agent heldout", "--choose augment,loss")
+    assert _index(lines, "pilot-augment-seed150", "--steps 4000000") < pilot
+    assert not (tmp_path / "runs/robust/pilot-loss-seed150").exists()  # the winner goes on as sym's 150
+    assert (tmp_path / "runs/robust/sym-seed150").is_dir()
+    arms = ("sym", "curriculum", "sym-curriculum", "rp-sym")
+    pairs = [
+        sorted(_index(lines, f"--out runs/robust/{arm}-seed{seed} ") for seed in (150, 215)) for arm in arms
+    ]
+    assert pilot < pairs[0][0]
+    assert all(earlier[1] < later[0] for earlier, later in itertools.pairwise(pairs))  # a pair at a time
+    configs = tmp_path / "runs/robust/configs"
+    assert json.loads((configs / "rp-sym.json").read_text())["ppo"]["symmetry"] == "loss"
+    assert json.loads((configs / "sym-curriculum.json").read_text())["env"]["push_curriculum"] is True
+    rule = _index(lines, "--choose sym,curriculum,sym-curriculum", "--baseline baseline", "broad-pushes.json")
+    assert pairs[-1][1] < rule
+    robust_seeds = [line for line in lines if "--out runs/agent-robust/seed" in line]
+    assert len(robust_seeds) == (2 if stands == "true" else 0)
+    evaluate = _index(lines, "evaluate", "--friction-sweep", "--out evals ")
+    balanced = _index(lines, "evaluate", "--push-directions balanced", "--out evals-balanced")
+    assert rule < evaluate < balanced
+    assert ("--controller agent:runs/agent-robust " in lines[evaluate]) == (stands == "true")
