@@ -111,3 +111,41 @@ def test_krl_agent_push_writes_the_figure_table_and_traces(tmp_path, capsys):
     bad = tmp_path / "bad"
     assert main(["agent", "push", "--at", "99", "--out", str(bad)]) == 2
     assert "push start time must lie in" in capsys.readouterr().err and not bad.exists()
+
+
+def test_a_push_that_blows_the_simulation_up_is_an_unstable_run_as_krl_evaluate_records_it(tmp_path, capsys):
+    """Issue 47: 1e30 N blew the simulation up and the trace said the kernel did not fall. As in ``krl
+    evaluate``, the run carries the SimulationUnstableError and counts as a fall; stderr says so."""
+    out = tmp_path / "push"
+    argv = ["agent", "push", "--controller", "kernel", "--magnitude", "1e30", "--out", str(out), "--json"]
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    (row,) = json.loads(captured.out)["controllers"]
+    assert row["error"].startswith("SimulationUnstableError: ") and row["fell"] and not row["success"]
+    assert json.loads((out / "push-trace.json").read_text())["controllers"][0]["error"] == row["error"]
+    assert "error" in (out / "push-trace.csv").read_text().splitlines()[0].split(",")
+    assert f"krl: warning: kernel-base: {row['error']} (counted as a fall, as krl evaluate counts it)" in (
+        captured.err.splitlines()
+    )
+
+
+@pytest.mark.parametrize("magnitude", ["nan", "inf", "-1e30", "-5"])
+def test_a_non_finite_or_negative_push_is_refused_in_one_line(tmp_path, capsys, magnitude):
+    out = tmp_path / "push"
+    assert main(["agent", "push", "--magnitude", magnitude, "--controller", "kernel", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert (
+        err.startswith("krl: error: push magnitude must be a finite number >= 0 N, got ")
+        and err.count("\n") == 1
+    )
+    assert not out.exists()
+
+
+def test_a_summary_of_a_run_that_ended_with_an_error_is_a_fall_with_that_error():
+    metrics = {"fell": False, "success": False, "error": "MPCError: the QP failed"}
+    summary = push_summary(PushProbe(start_time=2.5), synthetic_trace(), metrics)
+    assert summary["fell"] and summary["error"] == "MPCError: the QP failed"
+    assert (
+        push_summary(PushProbe(start_time=2.5), synthetic_trace(), {"fell": False, "success": True})["error"]
+        is None
+    )

@@ -187,7 +187,9 @@ def push_summary(probe: PushProbe, trace: dict[str, np.ndarray], metrics: dict[s
     it never does); ``min_height`` [m] of the trunk; ``first_touchdown`` [s] after the push began;
     ``touchdowns`` within 1 s of it; ``stride_before`` and ``stride_after`` [s]: a foot's touchdown interval
     over :data:`RHYTHM_WINDOW` before and after it; ``min_ride_height`` [m] and ``max_clock_rate``: the
-    gait an agent chose (None for controllers without a gait path)."""
+    gait an agent chose (None for controllers without a gait path); ``error``: why the run ended early (a
+    diverging simulation, an MPC that gave up; None), such a run counting as a fall (``fell``) as
+    ``krl evaluate``'s aggregates count it (:mod:`krl.eval.summaries`)."""
     time, start = trace["time"], probe.start_time
     after = (time >= start) & (time < start + RESPONSE_WINDOW)
     along = speed_along(probe, trace)
@@ -197,8 +199,9 @@ def push_summary(probe: PushProbe, trace: dict[str, np.ndarray], metrics: dict[s
     later = np.concatenate([d[d > start] for d in downs])
     gait = trace["gait"][after]
     driven = bool(np.isfinite(gait).all()) and gait.size > 0
+    error = metrics.get("error")
     return {
-        "fell": bool(metrics["fell"]),
+        "fell": bool(metrics["fell"]) or error is not None,
         "success": bool(metrics["success"]),
         "peak_speed": round(float(along[after].max()), 4) if after.any() else None,
         "drift": round(float(carried.max()), 4) if carried.size else None,
@@ -210,6 +213,7 @@ def push_summary(probe: PushProbe, trace: dict[str, np.ndarray], metrics: dict[s
         "stride_after": _stride(downs, start, start + RHYTHM_WINDOW),
         "min_ride_height": round(float(gait[:, 1].min()), 4) if driven else None,
         "max_clock_rate": round(float(gait[:, 2].max()), 4) if driven else None,
+        "error": error,
     }
 
 
@@ -227,6 +231,7 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
     "stride_after",
     "min_ride_height",
     "max_clock_rate",
+    "error",
 )
 """The columns of ``push-trace.csv``: the controller's label, then :func:`push_summary`'s keys."""
 

@@ -196,6 +196,12 @@ def run_push(args: argparse.Namespace) -> int:
     specs = distinct_controllers([parse_controller(text) for text in args.controller or PUSH_CONTROLLERS])
     runs = {spec.driven_label: push_trace(probe, spec.build()) for spec in specs}
     written = write_push_report(probe, runs, Path(args.out))
+    for row in written["table"]["controllers"]:
+        if row["error"] is not None:  # as krl evaluate records it: the run counts as a fall
+            _note(
+                f"krl: warning: {row['controller']}: {row['error']} "
+                "(counted as a fall, as krl evaluate counts it)"
+            )
     emit({kind: written[kind] for kind in ("png", "json", "csv", "npz")} | written["table"], args.json)
     return 0
 
