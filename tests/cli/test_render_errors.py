@@ -6,6 +6,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 
 def _krl(argv: list[str], environment: dict[str, str], cwd, prelude: str = "") -> subprocess.CompletedProcess:
     """``krl ARGV`` in a fresh interpreter (MuJoCo's backend is chosen at its first import), after
@@ -29,15 +31,30 @@ def test_render_without_any_gl_library_is_one_line(tmp_path):
     )
 
 
-def test_a_rendering_backend_mujoco_cannot_load_is_one_line_for_every_command(tmp_path):
-    """MuJoCo loads its MUJOCO_GL backend on import; one that cannot load (here an unknown value; on a
-    machine without libEGL, ``egl``) fails even a command that never renders: in one line, not a traceback."""
-    environment = {**os.environ, "MUJOCO_GL": "vulkan-please"}
-    result = _krl(["agent", "info"], environment, tmp_path)
-    assert result.returncode == 2
-    assert result.stderr == (
-        "krl: error: MuJoCo could not load its rendering backend MUJOCO_GL=vulkan-please (RuntimeError: "
-        "invalid value for environment variable MUJOCO_GL: vulkan-please); set MUJOCO_GL=osmesa (apt-get "
-        "install libosmesa6 (with sudo when not root)), or MUJOCO_GL=disable where nothing is rendered\n"
+UNLOADABLE: dict[str, dict[str, str]] = {
+    "an unknown backend": {"MUJOCO_GL": "vulkan-please"},
+    "osmesa without libOSMesa": {"MUJOCO_GL": "osmesa", "PYOPENGL_PLATFORM": "osmesa"},
+}
+"""``MUJOCO_GL`` backends MuJoCo cannot load on import (libOSMesa hidden by :data:`WITHOUT_OSMESA`)."""
+
+WITHOUT_OSMESA = "import ctypes.util; ctypes.util.find_library = lambda name: None\n"
+"""A prelude in which no GL library is found (PyOpenGL looks libOSMesa up with ``find_library``)."""
+
+
+@pytest.mark.parametrize("backend", UNLOADABLE)
+def test_only_rendering_needs_a_backend_mujoco_cannot_load(tmp_path, backend):
+    """Issue 47: with ``MUJOCO_GL=osmesa`` and no libOSMesa, even ``krl --help`` and ``krl --version``
+    failed (MuJoCo imports its backend with itself). Every command but the rendering ones works; those
+    name the backend in one line."""
+    environment = {**os.environ, **UNLOADABLE[backend]}
+    environment.pop("DISPLAY", None)
+    for argv, shows in ((["--version"], "krl "), (["--help"], "COMMAND"), (["terrains"], "heightfield")):
+        result = _krl(argv, environment, tmp_path, WITHOUT_OSMESA)
+        assert result.returncode == 0 and shows in result.stdout, (argv, result.stderr)
+        assert result.stderr == ""
+    result = _krl(["render", "--terrain", "flat", "--out", "x.png"], environment, tmp_path, WITHOUT_OSMESA)
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert result.stderr.startswith(
+        f"krl: error: MuJoCo could not load its rendering backend MUJOCO_GL={environment['MUJOCO_GL']} ("
     )
-    assert list(tmp_path.iterdir()) == []
+    assert not (tmp_path / "x.png").exists()

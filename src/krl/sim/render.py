@@ -57,18 +57,25 @@ def _first_line(error: BaseException | str) -> str:
 
 
 def import_mujoco() -> None:
-    """Import ``mujoco``, or raise :class:`RenderError` in one line when its ``MUJOCO_GL`` backend cannot
-    load (an unknown value, or ``egl``/``osmesa`` without the library: MuJoCo imports the backend with
-    itself, so a command that never renders fails too)."""
+    """Import ``mujoco`` so that only rendering needs its ``MUJOCO_GL`` backend. MuJoCo imports the backend
+    with itself, so one that cannot load (an unknown value, or ``egl``/``osmesa`` without the library) would
+    fail every command, ``krl --help`` included: then ``mujoco`` is imported without rendering
+    (``MUJOCO_GL=disable``, which this process's children inherit) and the failure is remembered, for
+    :class:`FrameRenderer` to raise in one line. :class:`RenderError` if even that import fails."""
+    global _backend_failure
     try:
-        import mujoco  # noqa: F401
+        import mujoco
     except (RuntimeError, ImportError, AttributeError, OSError) as error:
         backend = os.environ.get("MUJOCO_GL", "unset")
-        raise RenderError(
+        _backend_failure = (
             f"MuJoCo could not load its rendering backend MUJOCO_GL={backend} ({type(error).__name__}: "
-            f"{_first_line(error)}); set MUJOCO_GL=osmesa ({OSMESA_INSTALL}), or MUJOCO_GL=disable where "
-            "nothing is rendered"
-        ) from None
+            f"{_first_line(error)}); install its library (osmesa: {OSMESA_INSTALL}) or set another MUJOCO_GL"
+        )
+        os.environ["MUJOCO_GL"] = "disable"
+        try:
+            import mujoco  # noqa: F401
+        except (RuntimeError, ImportError, AttributeError, OSError):
+            raise RenderError(_backend_failure) from None
 
 
 def render_unavailable(error: BaseException | str) -> str:
