@@ -139,7 +139,8 @@ class Asymmetry:
     quantity: str
     """What differs: ``centre of mass``, ``inertia``, ``position``, ``axis``, ..."""
     difference: float
-    """Largest absolute difference from the mirror image [SI units of the quantity]."""
+    """Largest absolute difference from the mirror image [SI units of the quantity]; for the trunk, its own
+    partner, twice its asymmetric part (a centre of mass at y differs from its mirror by 2|y|)."""
 
 
 def _inertia_matrix(model: mujoco.MjModel, body: int) -> np.ndarray:
