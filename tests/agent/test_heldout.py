@@ -14,6 +14,7 @@ from agent_fakes import make_policy
 from krl.agent.action import action_parts
 from krl.agent.config import AgentConfig, EnvConfig, ResidualConfig
 from krl.agent.policy import load_policy
+from krl.agent.process_vec_env import ProcessVecEnv
 from krl.agent.train import _env_seed, train
 from krl.analysis.agent import heldout
 from krl.analysis.agent.heldout import HELDOUT_SEED, drive_usage, group_rows
@@ -378,3 +379,46 @@ def test_a_refused_seed_group_writes_no_choice(tmp_path, tiny_group, capsys):
     assert f"{group / 'seed1'} holds another policy than" in err and len(err.splitlines()) == 1
     assert not (out / "choice.json").exists() and not (out / "chosen-config.json").exists()
     assert sorted(path.name for path in group.rglob("*")) == ["policy.npz", "seed1"]
+
+
+def test_an_absurd_episode_count_is_refused_in_one_line(tmp_path, capsys):
+    """Issue 47: ``--episodes 1000000000000`` built every episode's environment at once and was killed for
+    memory."""
+    out = tmp_path / "out"
+    argv = ["agent", "heldout", "--policy", "rp", "--episodes", "1000000000000", "--out", str(out), "--quiet"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err == f"krl: error: --episodes must be at most {heldout.MAX_EPISODES}, got 1000000000000\n"
+    assert not out.exists()
+    with pytest.raises(ValueError, match="at most"):
+        heldout.heldout_episodes(tmp_path / "unread.npz", heldout.MAX_EPISODES + 1, 1)
+
+
+def test_many_episodes_walk_in_batches_of_bounded_size_with_the_same_episodes(
+    tmp_path, monkeypatch, small_config
+):
+    config = replace(
+        small_config,
+        env=EnvConfig(episode_time=0.5),
+        residual=ResidualConfig(kernel="ext", drive_heights=True, drive_rhythm=True),
+    )
+    path = make_policy(config, scale=0.5, seed=3).save(tmp_path / "gait.npz")
+    built = []
+
+    def recording(config, workers, num_envs, seed, kernel):
+        built.append((workers * num_envs, seed))
+        return ProcessVecEnv(config, workers, num_envs, seed, kernel)
+
+    monkeypatch.setattr(heldout, "ProcessVecEnv", recording)
+    monkeypatch.setattr(heldout, "HELDOUT_BATCH", 2)
+    batched, batched_usage = heldout.heldout_episodes(path, 5, 1)
+    assert built == [(2, HELDOUT_SEED), (2, HELDOUT_SEED + 2), (1, HELDOUT_SEED + 4)]
+    monkeypatch.setattr(heldout, "HELDOUT_BATCH", 8)
+    whole, whole_usage = heldout.heldout_episodes(path, 5, 1)
+    assert built[3:] == [(5, HELDOUT_SEED)]
+    assert [e["terrain"] for e in batched] == [e["terrain"] for e in whole]
+    for mine, one_batch in zip(batched, whole, strict=True):
+        assert (mine["targets_reached"], mine["fell"]) == (one_batch["targets_reached"], one_batch["fell"])
+        assert mine["reward_per_step"] == pytest.approx(one_batch["reward_per_step"], rel=1e-9)
+    for drive, usage in whole_usage.items():
+        assert batched_usage[drive] == pytest.approx(usage, rel=1e-9, abs=1e-12)

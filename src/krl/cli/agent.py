@@ -285,19 +285,22 @@ def _seed_group_copies(args: argparse.Namespace, groups: dict, chosen: str | Non
 def run_heldout(args: argparse.Namespace) -> int:
     from krl.agent.policy import policy_artifacts
     from krl.analysis.agent.heldout import (
+        MAX_EPISODES,
         against_baseline,
         choose,
         group_rows,
         write_choice,
-        write_tables,
         write_verdict,
     )
+    from krl.analysis.agent.heldout_tables import write_tables
     from krl.analysis.agent.seed_group import copy_into_group
     from krl.util.parallel import usable_cores
     from krl.util.progress import progress_bar
 
     if args.episodes < 1:
         raise CliError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.episodes > MAX_EPISODES:  # each batch of episodes is built at once: see HELDOUT_BATCH
+        raise CliError(f"--episodes must be at most {MAX_EPISODES}, got {args.episodes}")
     workers = usable_cores() if args.workers is None else args.workers
     if workers < 1:
         raise CliError(f"--workers must be at least 1, got {workers}")
@@ -460,7 +463,12 @@ def register(subparsers) -> None:
         help=f"[LABEL=]POLICY: a shipped name ({SHIPPED_AGENTS}), a policy file or a seed group (its "
         "seeds); repeat",
     )
-    p.add_argument("--episodes", type=int, default=32, help="episodes per policy file (default 32)")
+    p.add_argument(
+        "--episodes",
+        type=int,
+        default=32,
+        help="episodes per policy file (default 32, at most 1024; walked 32 at a time)",
+    )
     p.add_argument(
         "--choose",
         help="LABEL,LABEL,...: choose one of these by held-out success, ties within one episode by targets; "

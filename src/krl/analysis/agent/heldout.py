@@ -5,7 +5,8 @@ checkpoint, a setting or a seed. What does choose is this: each policy walks fre
 environment it trained in (its own config: terrains, pushes, waypoints, reward, observation noise), from
 environment seeds no training ever used (:data:`HELDOUT_SEED` on), with its deterministic action (the
 network's mean, as in every evaluation). Environment ``k`` of the ``episodes`` is seeded ``HELDOUT_SEED +
-k``, so every policy meets the same terrains, starts, waypoints and push draws.
+k``, so every policy meets the same terrains, starts, waypoints and push draws. Episodes are walked
+:data:`HELDOUT_BATCH` at a time (each batch's environments built together), at most :data:`MAX_EPISODES`.
 
 To compare recipes trained on different grounds, every policy can walk the episodes of one given
 environment instead (``env``: a config's :class:`krl.agent.config.EnvConfig`; its terrains, pushes,
@@ -37,7 +38,7 @@ from krl.agent.policy import RECIPE_FIELDS, check_kernel_file, load_policy
 from krl.agent.process_vec_env import ProcessVecEnv
 from krl.kernel.model import load_kernel
 from krl.util.hashing import file_sha256
-from krl.util.output import csv_bytes, json_value, write_atomic
+from krl.util.output import json_value, write_atomic
 from krl.util.timing import CONTROL_DT
 
 HELDOUT_SEED: int = 1_000_000_000
@@ -48,6 +49,17 @@ METRICS: tuple[str, ...] = ("targets_reached", "success_rate", "fall_rate", "rew
 """The per-policy measures, each a mean over its episodes."""
 
 
+HELDOUT_BATCH: int = 32
+"""Episodes walked at once, their environments built together (about 14 MB each): a larger count is
+walked in batches of this many, environment ``k`` still seeded ``HELDOUT_SEED + k``, so memory does not
+grow with the count. A count up to this (the documented 32) is one batch, walked as it always was."""
+
+MAX_EPISODES: int = 1024
+"""The most held-out episodes per policy file: 32 batches, a machine-day of 60 s episodes on a few cores.
+What still grows with the count is small: each episode's record and, for a policy that drives its gait,
+the driven numbers of every step (:func:`drive_usage`; at most about 0.4 GB here)."""
+
+
 def heldout_episodes(
     path: Path,
     episodes: int,
@@ -56,35 +68,66 @@ def heldout_episodes(
     env: EnvConfig | None = None,
 ) -> tuple[list[dict[str, Any]], dict[str, dict[str, float]]]:
     """Walk ``episodes`` held-out episodes with the policy file at ``path`` (``workers`` processes), one
-    episode per environment, in the policy's own training environment or in ``env``. Returns one dict per
-    episode, in environment order (``targets_reached``, ``fell``, ``length_s`` [s], ``reward_per_step``,
-    ``terrain``), and the policy's :func:`drive_usage` over every step of them (empty for a policy that
-    drives nothing). ``on_episode`` is called as each episode ends."""
+    episode per environment, in batches of :data:`HELDOUT_BATCH`, in the policy's own training environment
+    or in ``env``. Returns one dict per episode, in environment order (``targets_reached``, ``fell``,
+    ``length_s`` [s], ``reward_per_step``, ``terrain``), and the policy's :func:`drive_usage` over every step
+    of them (empty for a policy that drives nothing). ``on_episode`` is called as each episode ends.
+
+    Raises:
+        ValueError: ``episodes`` is not in [1, :data:`MAX_EPISODES`].
+    """
+    if not 1 <= episodes <= MAX_EPISODES:
+        raise ValueError(f"held-out episodes must be 1 to at most {MAX_EPISODES}, got {episodes}")
     policy = load_policy(path)
     kernel = check_kernel_file(policy, None, path)
     parts = action_parts(policy.config.residual, load_kernel(kernel))
-    drives = any(part.name in DRIVE_PARTS for part in parts)
-    workers = max(1, min(workers, episodes))
-    per_worker = math.ceil(episodes / workers)
     config = policy.config if env is None else dataclasses.replace(policy.config, env=env)
-    venv = ProcessVecEnv(config, workers, per_worker, HELDOUT_SEED, str(kernel))
-    ended: list[dict[str, Any] | None] = [None] * episodes
-    asked: list[np.ndarray] = []
-    try:
-        observations = venv.reset()
-        while any(episode is None for episode in ended):
-            actions = policy.act(observations)
-            if drives:
-                asked.append(actions[[index for index in range(episodes) if ended[index] is None]])
-            observations, _, dones, infos = venv.step(actions)
-            for index in np.flatnonzero(dones[:episodes]):
-                if ended[index] is None:
-                    ended[index] = _episode(infos[index]["episode"])
-                    on_episode()
-    finally:
-        venv.close()
-    usage = drive_usage(parts, np.concatenate(asked)) if drives else {}
-    return [episode for episode in ended if episode is not None], usage
+    walk = _BatchWalk(policy, config, str(kernel), parts, on_episode)
+    walked: list[dict[str, Any]] = []
+    for first in range(0, episodes, HELDOUT_BATCH):
+        walked += walk(first, min(HELDOUT_BATCH, episodes - first), workers)
+    driven = tuple(part for part in parts if part.name in DRIVE_PARTS)
+    usage = drive_usage(driven, np.concatenate(walk.asked)) if driven else {}
+    return walked, usage
+
+
+class _BatchWalk:
+    """Walks batches of held-out episodes of one policy, keeping what its drives asked for (the driven
+    parts' columns of its actions, every step of every unfinished episode) in :attr:`asked`."""
+
+    def __init__(self, policy, config: AgentConfig, kernel: str, parts, on_episode: Callable[[], None]):
+        self.policy, self.config, self.kernel, self.on_episode = policy, config, kernel, on_episode
+        starts = np.cumsum([0, *(part.size for part in parts)])
+        self.columns = [
+            column
+            for part, start in zip(parts, starts, strict=False)
+            if part.name in DRIVE_PARTS
+            for column in range(start, start + part.size)
+        ]
+        self.asked: list[np.ndarray] = []
+
+    def __call__(self, first: int, episodes: int, workers: int) -> list[dict[str, Any]]:
+        """Episodes ``first`` to ``first + episodes - 1`` (environment ``k`` seeded ``HELDOUT_SEED + k``),
+        on ``workers`` processes (at most one per episode)."""
+        workers = max(1, min(workers, episodes))
+        per_worker = math.ceil(episodes / workers)
+        venv = ProcessVecEnv(self.config, workers, per_worker, HELDOUT_SEED + first, self.kernel)
+        ended: list[dict[str, Any] | None] = [None] * episodes
+        try:
+            observations = venv.reset()
+            while any(episode is None for episode in ended):
+                actions = self.policy.act(observations)
+                if self.columns:
+                    running = [index for index in range(episodes) if ended[index] is None]
+                    self.asked.append(actions[running][:, self.columns])
+                observations, _, dones, infos = venv.step(actions)
+                for index in np.flatnonzero(dones[:episodes]):
+                    if ended[index] is None:
+                        ended[index] = _episode(infos[index]["episode"])
+                        self.on_episode()
+        finally:
+            venv.close()
+        return [episode for episode in ended if episode is not None]
 
 
 SATURATED: float = 0.99
@@ -273,123 +316,3 @@ def write_verdict(choice: dict[str, Any], out: Path) -> str:
     (out / "chosen-config.json").unlink(missing_ok=True)
     write_atomic(out / "choice.json", json.dumps(json_value(choice), indent=1) + "\n")
     return str(out / "choice.json")
-
-
-def write_tables(
-    rows: list[dict[str, Any]],
-    records: dict[str, list[tuple[int | None, dict[str, Any]]]],
-    out: Path,
-    choice: dict[str, Any] | None = None,
-    ground: str | None = None,
-) -> dict[str, str]:
-    """``heldout.csv`` (the group rows) and ``heldout.md`` (them, every seed's summary and ``choice``,
-    :func:`choose`'s answer, when given) in ``out``; ``ground`` names the config file whose environment
-    every policy walked (None: each its own)."""
-    columns = ["label", "seeds", "episodes", *(f"{m}_{s}" for m in METRICS for s in ("mean", "std"))]
-    write_atomic(out / "heldout.csv", csv_bytes(columns, rows))
-    where, reward = (
-        (
-            "its own training environment",
-            "each policy's own training reward: not comparable between policies trained on different rewards",
-        )
-        if ground is None
-        else (f"the environment of `{ground}`", "that environment's reward")
-    )
-    lines = [
-        "# Held-out episodes of the training distribution",
-        "",
-        f"Each policy walks the same {rows[0]['episodes']} episodes of {where}, seeded from {HELDOUT_SEED} "
-        "on (never a training seed), with its deterministic action; mean ± sample std over seeds. Success: "
-        f"at least {SUCCESS_TARGETS} waypoints without a fall. Reward/step is {reward}.",
-        "",
-        "| policy | seeds | targets reached | success rate | fall rate | reward/step |",
-        "| --- | --- | --- | --- | --- | --- |",
-    ]
-    lines += [f"| {row['label']} | {row['seeds']} | {_cells(row)} |" for row in rows]
-    lines += [
-        "",
-        "By seed:",
-        "",
-        "| policy | seed | targets reached | success rate | fall rate | reward/step |",
-    ]
-    lines += ["| --- | --- | --- | --- | --- | --- |"]
-    for label, members in records.items():
-        for seed, record in members:
-            summary = record["summary"]
-            cells = " | ".join(f"{summary[m]:.3g}" for m in METRICS)
-            lines.append(f"| {label} | {'-' if seed is None else seed} | {cells} |")
-    written = {"csv": str(out / "heldout.csv"), "md": str(out / "heldout.md")}
-    drives = drive_rows(records)
-    if drives:
-        write_atomic(out / "heldout-drives.csv", csv_bytes(list(drives[0]), drives))
-        written["drives_csv"] = str(out / "heldout-drives.csv")
-        lines += ["", *_drive_lines(drives)]
-    if choice is not None:
-        lines += ["", *_choice_lines(choice)]
-    write_atomic(out / "heldout.md", "\n".join(lines) + "\n")
-    return written
-
-
-def drive_rows(records: dict[str, list[tuple[int | None, dict[str, Any]]]]) -> list[dict[str, Any]]:
-    """One row per label and driven number (:func:`drive_usage`), each statistic the mean over the
-    label's seeds; none for labels that drive nothing (or records written before drives were counted)."""
-    rows = []
-    for label, members in records.items():
-        usages = [record.get("drive_usage") or {} for _, record in members]
-        for drive in usages[0]:
-            row: dict[str, Any] = {"label": label, "drive": drive}
-            for statistic in DRIVE_STATISTICS:
-                row[statistic] = float(np.mean([usage[drive][statistic] for usage in usages]))
-            rows.append(row)
-    return rows
-
-
-def _drive_lines(rows: list[dict[str, Any]]) -> list[str]:
-    lines = [
-        "How the gait-driving policies used their drives: what each asked for (before the drive filter) "
-        f"over every step of the held-out episodes, mean over seeds; at a bound: the share of steps whose "
-        f"action was at ±{SATURATED} or beyond.",
-        "",
-        "| policy | drive | mean | 5 % | 95 % | at low bound | at high bound |",
-        "| --- | --- | --- | --- | --- | --- | --- |",
-    ]
-    for row in rows:
-        cells = " | ".join(f"{row[s]:.3g}" for s in DRIVE_STATISTICS)
-        lines.append(f"| {row['label']} | {row['drive']} | {cells} |")
-    return lines
-
-
-def _choice_lines(choice: dict[str, Any]) -> list[str]:
-    others = [label for label in choice["tied"] if label != choice["chosen"]]
-    tie = (
-        f"tied within {choice['tolerance']:.3g} with {', '.join(others)}; the most targets reached wins"
-        if others
-        else "no other candidate within one episode of it"
-    )
-    lines = [
-        f"Chosen: **{choice['chosen']}**, the highest held-out success rate "
-        f"({choice['best_success_rate']:.3g}) of the candidates, {tie} "
-        "(`krl.analysis.agent.heldout.choose`).",
-    ]
-    baseline = choice.get("baseline")
-    if baseline:
-        for where, check in baseline["checks"].items():
-            need = "better than" if check["must_beat"] else "no worse than"
-            verdict = "holds" if check["holds"] else "does not hold"
-            lines.append(
-                f"- {need} {baseline['label']} on {where}: success {check['margin']:+.3g} against it, "
-                f"one episode {check['tolerance']:.3g}: {verdict}."
-            )
-        lines.append(
-            f"The choice **{'stands' if baseline['stands'] else 'does not stand'}** against "
-            f"{baseline['label']} (`krl.analysis.agent.heldout.against_baseline`)."
-        )
-    return lines
-
-
-def _cells(row: dict[str, Any]) -> str:
-    cells = []
-    for metric in METRICS:
-        mean, std = row[f"{metric}_mean"], row[f"{metric}_std"]
-        cells.append(f"{mean:.3g}" if math.isnan(std) else f"{mean:.3g} ± {std:.2g}")
-    return " | ".join(cells)
