@@ -1,5 +1,5 @@
-"""Every ``krl`` command the README shows parses with today's parser, and runs, smoke-sized (so the README
-cannot rot).
+"""Every ``krl`` command the README and docs/cli.md show parses with today's parser, and runs, smoke-sized
+(so the pages cannot rot).
 
 Each command runs in-process (``krl.cli.main``) with the options of its entry in :data:`SMOKE` appended:
 argparse keeps the last value of a repeated option, so ``krl collect --out data/base --targets 500`` plus
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import shlex
 import shutil
 import subprocess
@@ -27,6 +28,8 @@ from krl.cli import build_parser, main
 from krl.sim.render import rendering_problem
 
 README = Path(__file__).resolve().parents[1] / "README.md"
+PAGES: tuple[Path, ...] = (README, README.with_name("docs") / "cli.md")
+"""The pages whose commands run: the README and the reference of the ``krl`` command."""
 
 RENDER, WINDOW = "render", "window"
 """What a command needs beyond Python: offscreen rendering (libOSMesa), or a window (run under Xvfb)."""
@@ -115,6 +118,17 @@ SMOKE: dict[str, tuple[str, str | None]] = {
         None,
     ),
     "krl report": ("", None),
+    "krl demo --controller agent:gait-ground": ("--course mine.toml --workers 1 --no-video --quiet", None),
+    "krl evaluate --controller agent --controller expert --out evaluations/mine": (
+        "--course mine.toml --seeds 150 --workers 1 --quiet",
+        None,
+    ),
+    "krl evaluate --controller agent --push-sweep --attempts 50 --out evaluations/mine": (
+        "--magnitudes 250 --attempts 1 --workers 1 --quiet",
+        None,
+    ),
+    "krl report --results evaluations/mine --out report/": ("--results runs/eval", None),
+    "krl agent train --out runs/my-agent --seed 150": ("--config agent-tiny.json --steps 256 --quiet", None),
 }
 
 MINE_TOML = """\
@@ -157,18 +171,22 @@ WORKSPACE_COMMANDS = (
 
 
 def readme_commands() -> list[str]:
-    """The ``krl …`` commands of the README's shell blocks, each once (comments dropped, ``&&`` chains
-    split)."""
-    commands, in_block = [], False
-    for line in README.read_text().splitlines():
-        if line.startswith("```"):
-            in_block = line.strip() == "```bash"
-            continue
-        if in_block:
-            for part in line.split("#")[0].split("&&"):
-                part = part.strip()
-                if part.startswith("krl "):
-                    commands.append(part)
+    """The ``krl …`` commands the README and the command reference (:data:`PAGES`) show, each once: those
+    of their shell blocks (comments dropped, ``&&`` chains split) and the code spans of their tables."""
+    commands = []
+    for page in PAGES:
+        in_block = False
+        for line in page.read_text().splitlines():
+            if line.startswith("```"):
+                in_block = line.strip() == "```bash"
+                continue
+            if in_block:
+                parts = [part.strip() for part in line.split("#")[0].split("&&")]
+            elif line.startswith("|"):
+                parts = re.findall(r"`(krl [^`]+)`", line)
+            else:
+                continue
+            commands += [part for part in parts if part.startswith("krl ")]
     return list(dict.fromkeys(commands))
 
 
