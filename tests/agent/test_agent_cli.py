@@ -91,7 +91,7 @@ def test_agent_errors_are_one_line(tmp_path, capsys):
     (tmp_path / "bad.npz").write_text("not a policy")
     assert main(["agent", "run", "--policy", str(tmp_path / "bad.npz"), "--targets", "1"]) == 2
     error = capsys.readouterr().err
-    assert error.startswith("krl: error: policy file") and error.count("\n") == 1
+    assert error == f"krl: error: {tmp_path / 'bad.npz'} is not a krl policy (.npz) file\n"
     (tmp_path / "cfg.json").write_text('{"observation": {"features": ["joint_pos", "nonsense"]}}')
     assert (
         main(["agent", "train", "--out", str(tmp_path / "run"), "--config", str(tmp_path / "cfg.json")]) == 2
