@@ -341,6 +341,7 @@ class A1ResidualEnv(gym.Env):
         return observation, {"terrain": self.batch.terrain_names[0]}
 
     def step(self, action):
+        """One 200 Hz control step: Gymnasium's ``(observation, reward, terminated, truncated, info)``."""
         action = np.asarray(action, dtype=float)
         if action.shape != (self.action_size,):
             raise ValueError(

@@ -6,17 +6,17 @@ negates every lateral (y) component of a polar vector and the x and z components
 velocity, roll, yaw). Every mirror here is a *signed permutation* ``mirrored[i] = sign[i] * x[index[i]]``,
 so it is linear, exact in floating point, and its own inverse.
 
-========================== ==================================================================
-kind                       mirror
-========================== ==================================================================
-polar vector (x, y, z)     (x, -y, z): linear velocity, gravity direction, a foot's residual or target
-axial vector (x, y, z)     (-x, y, -z): angular velocity (roll and yaw rates)
-command (v_x, v_y, ω_z)    (v_x, -v_y, -ω_z)
-roll, pitch                (-roll, pitch)
-per-leg joint (ab, hip, kn) legs swapped, abduction negated (its axis is the base x axis), hip and knee kept
-per-leg scalar             legs swapped: contacts, contact forces, gait phases
-heights, clock rate        unchanged
-========================== ==================================================================
+============================= ==================================================================
+kind                          mirror
+============================= ==================================================================
+polar vector (x, y, z)        (x, -y, z): linear velocity, gravity direction, a foot's residual or target
+axial vector (x, y, z)        (-x, y, -z): angular velocity (roll and yaw rates)
+command (v_x, v_y, ω_z)       (v_x, -v_y, -ω_z)
+roll, pitch                   (-roll, pitch)
+per-leg joint (ab, hip, kn)   legs swapped, abduction negated (its axis is the base x axis), hip and knee kept
+per-leg scalar                legs swapped: contacts, contact forces, gait phases
+heights, clock rate           unchanged
+============================= ==================================================================
 
 The gait phases swap with the legs: in a trot (FR with RL, FL with RR, half a period apart) the mirrored
 robot's clock is the original's shifted by half a period, a state of the same gait.

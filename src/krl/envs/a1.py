@@ -111,6 +111,7 @@ class A1Env(gym.Env):
         return self._observation(state), self._info(state)
 
     def step(self, action):
+        """One 200 Hz control step: Gymnasium's ``(observation, reward, terminated, truncated, info)``."""
         action = np.asarray(action, dtype=float)
         if action.shape != (NUM_JOINTS,):
             raise ValueError(f"action must have shape (12,), got {action.shape}")

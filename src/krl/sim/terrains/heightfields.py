@@ -100,8 +100,8 @@ def _grid_terrain(
 def build_heightfield(
     spec: mujoco.MjSpec, name: str, p: HeightfieldParams, rng: np.random.Generator
 ) -> Terrain:
-    """Add the random height field: blocks of ``p.block``² vertices of height U(0, h) [m], level at h / 2
-    around the spawn point."""
+    """Add the random height field: blocks of ``p.block`` × ``p.block`` vertices of height U(0, h) [m],
+    level at h / 2 around the spawn point."""
     # Draw order (fixed, for reproducibility): h ~ U(low, high), always drawn so the block pattern below
     # does not depend on whether max_height was given; then one U(0, 1) per block, row-major, scaled by h.
     drawn_h = rng.uniform(p.max_height_low, p.max_height_high)
