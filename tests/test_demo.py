@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from krl.cli import main
 
 
@@ -59,3 +61,21 @@ def test_demo_refuses_an_unknown_controller_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "agent:nowhere" in err
     assert not (tmp_path / "demo").exists()
+
+
+def test_demo_says_what_it_films_and_writes_the_video(tmp_path, capsys):
+    from krl.sim.render import rendering_problem
+
+    if rendering_problem() is not None:
+        pytest.skip(rendering_problem())
+    course = tmp_path / "short.toml"
+    course.write_text(
+        'format = 1\nname = "short"\ndescription = "one waypoint"\ntime_limit = 1.0\nd_min = 0.5\n'
+        'waypoints = [[0.6, 0.0]]\nstarts = [[0.0, 0.0, 0.0]]\n[terrain]\nname = "flat"\nseed = 0\n'
+    )
+    out = tmp_path / "demo"
+    argv = ["demo", "--out", str(out), "--course", str(course), "--controller", "kernel", "--workers", "1"]
+    assert main([*argv, "--quiet"]) == 0
+    said = capsys.readouterr().err
+    assert "krl demo: filming kernel-base: 31 frames (1 s of walking)" in said
+    assert (out / "kernel-base-short.mp4").stat().st_size > 0

@@ -42,27 +42,53 @@ class DemoRun:
     course: Any
     """:class:`krl.eval.courses.Course`."""
     start: int
-    video: str | None
+    filmed: bool
+    """Log the walk's frames (:class:`krl.sim.video.FrameLog`) for :func:`film`."""
 
 
 def run_demo_walk(run: DemoRun) -> dict[str, Any]:
-    """Walk one controller over the course (in a worker); its metrics and path (x, y, z) [m]."""
+    """Walk one controller over the course (in a worker); its metrics, path (x, y, z) [m] and, when
+    filmed, its frames' joint positions (``qpos``)."""
     from krl.eval.episodes import score_walk
     from krl.sim.robot import A1Sim
+    from krl.sim.video import FrameLog
 
     trace: list[np.ndarray] = []
     course = run.course
+    sim = A1Sim(course.build())
+    frames = FrameLog(sim) if run.filmed else None
     metrics = score_walk(
-        A1Sim(course.build()),
+        sim,
         run.spec.build(),
         np.array(course.waypoints),
         course.starts[run.start],
         course.time_limit,
         course.d_min,
-        video=run.video,
         trace=trace,
+        frames=frames,
     )
-    return {"label": run.spec.driven_label, "metrics": metrics, "path": np.array(trace).tolist()}
+    result = {"label": run.spec.driven_label, "metrics": metrics, "path": np.array(trace).tolist()}
+    if frames is not None:
+        result["qpos"] = frames.qpos
+    return result
+
+
+def film(course, result: dict[str, Any], path: str, progress: bool, say: Callable[[str], None] | None) -> str:
+    """Render a filmed walk's frames into the MP4 ``path``, with a bar over the frames (and the time left);
+    ``say`` first hears how many frames and seconds of walking it films. Returns ``path``."""
+    from krl.sim.video import VIDEO_FPS, write_video
+    from krl.util.progress import progress_bar
+
+    frames = result["qpos"]
+    if say is not None:
+        say(
+            f"filming {result['label']}: {len(frames)} frames ({len(frames) / VIDEO_FPS:.0f} s of walking), "
+            "rendered in software; the bar shows the time left"
+        )
+    with progress_bar(progress, unit="frames") as bar:
+        task = bar.add_task(f"filming {result['label']}", total=len(frames))
+        write_video(course.build().model, frames, path, on_frame=lambda _: bar.advance(task))
+    return path
 
 
 def available_controllers(names: tuple[str, ...] | None = None) -> tuple[list[Any], list[str]]:
@@ -97,7 +123,8 @@ def make_demo(
     """Run the demo (module docstring); returns the summary printed by ``krl demo``. ``controllers``
     (``krl evaluate`` specs, the first filmed) must all build, else ValueError before anything is written;
     None runs those of :data:`DEMO_CONTROLLERS` that build here. ``say(note)`` hears each note (a skipped
-    controller, no video) before the walks start, which take minutes."""
+    controller, no video) before the walks start, which take minutes, and what the filming, which takes
+    minutes more, will render."""
     from krl.eval.courses import load_course
     from krl.util.parallel import run_jobs
 
@@ -116,16 +143,17 @@ def make_demo(
     for note in notes if say is not None else ():
         say(note)
     out.mkdir(parents=True, exist_ok=True)
-    film = str(out / f"{specs[0].driven_label}-{loaded.name}.mp4") if video else None
-    runs = [DemoRun(spec, loaded, start, film if index == 0 else None) for index, spec in enumerate(specs)]
-    results = run_jobs(run_demo_walk, runs, workers=workers, progress="demo" if progress else None)
+    runs = [DemoRun(spec, loaded, start, video and index == 0) for index, spec in enumerate(specs)]
+    results = run_jobs(run_demo_walk, runs, workers=workers, progress="walking" if progress else None)
+    video_path = str(out / f"{specs[0].driven_label}-{loaded.name}.mp4")
+    film_path = film(loaded, results[0], video_path, progress, say) if video else None
     rows = [_row(result) for result in results]
     write_atomic(out / "metrics.csv", csv_bytes(TABLE_COLUMNS, rows))
     write_atomic(out / "metrics.md", _markdown(loaded, start, rows, notes))
     write_atomic(out / "path.png", _path_figure(loaded, start, results))
     files = {"path": str(out / "path.png"), "metrics": str(out / "metrics.md")}
-    if film is not None:
-        files["video"] = film
+    if film_path is not None:
+        files["video"] = film_path
     return {"course": loaded.name, "start": start, "runs": rows, "files": files, "notes": notes}
 
 

@@ -121,6 +121,7 @@ def score_walk(
     video: str | Path | None = None,
     trace: list[np.ndarray] | None = None,
     push_in_heading_frame: bool = False,
+    frames=None,
 ) -> dict[str, Any]:
     """Walk ``controller`` from ``start_pose`` through ``targets`` within ``time_limit`` [s] and score it.
 
@@ -128,7 +129,8 @@ def score_walk(
     ``push_heading``, the base's yaw [rad] at the control step the push starts (None if the run ended
     before it); with ``push_in_heading_frame`` its force is relative to that heading (x forward, y left) and
     is turned by it into the world frame when the push starts (:func:`_push_scheduler`). ``video`` records
-    an MP4; ``trace`` receives the base position (x, y, z) [m] after every control step.
+    an MP4; ``trace`` receives the base position (x, y, z) [m] after every control step; ``frames`` (a
+    :class:`krl.sim.video.FrameLog` of ``sim``) logs the frames to film afterwards.
     A diverging simulation or an MPC that gives up ends the run with an ``error`` (counted as a fall by the
     aggregates) instead of stopping the evaluation.
     """
@@ -150,8 +152,9 @@ def score_walk(
         if push is not None and push_heading is None and push.active_at(sim.step_count - 1):
             push_heading = float(record.before.rpy[2])  # the step just taken is the push's first
         schedule(record.after)
-        if recorder is not None:
-            recorder.capture()
+        for capturing in (recorder, frames):
+            if capturing is not None:
+                capturing.capture()
         if trace is not None:
             trace.append(record.after.base_pos.copy())
 

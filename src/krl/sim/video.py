@@ -1,12 +1,73 @@
-"""MP4 videos of runs, rendered offscreen while the simulation steps."""
+"""MP4 videos of runs: rendered offscreen while the simulation steps (:class:`VideoRecorder`), or logged as
+joint positions while it steps and rendered afterwards (:class:`FrameLog`, :func:`write_video`), where the
+filming should show its progress apart from the walk."""
 
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Sequence
 from pathlib import Path
+
+import numpy as np
 
 from krl.sim.render import CameraView, FrameRenderer
 from krl.sim.robot import A1Sim
+
+
+VIDEO_FPS: int = 30
+"""Frames per second of simulated time in krl's videos."""
+
+
+class FrameLog:
+    """Call :meth:`capture` after every control step; keeps the simulator's ``qpos`` at ``fps`` of simulated
+    time, the frames :func:`write_video` renders later."""
+
+    def __init__(self, sim: A1Sim, fps: int = VIDEO_FPS) -> None:
+        if fps <= 0:
+            raise ValueError(f"fps must be positive, got {fps}")
+        self.sim, self.fps = sim, fps
+        self.qpos: list[np.ndarray] = []
+        """One ``MjData.qpos`` per frame. Shape of each: (model.nq,)."""
+        self._next = 0.0
+
+    def capture(self) -> None:
+        """Keep a frame if one is due at the simulator's current time."""
+        if self.sim.time + 1e-9 >= self._next:
+            self.qpos.append(self.sim.data.qpos.copy())
+            self._next += 1.0 / self.fps
+
+
+def write_video(
+    model,
+    qpos: Sequence[np.ndarray],
+    path: str | Path,
+    fps: int = VIDEO_FPS,
+    width: int = 640,
+    height: int = 480,
+    on_frame: Callable[[int], None] | None = None,
+) -> Path:
+    """Render one frame per ``qpos`` (of ``model``, the one they were logged in) into an MP4 at ``path``,
+    written beside it and moved into place when complete; ``on_frame(i)`` hears each frame rendered."""
+    import imageio.v2 as imageio
+    import mujoco
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    data = mujoco.MjData(model)
+    with FrameRenderer(model, width, height) as renderer:
+        writer = imageio.get_writer(temporary, fps=fps, macro_block_size=1)
+        try:
+            for index, frame in enumerate(qpos):
+                data.qpos[:] = frame
+                mujoco.mj_forward(model, data)
+                writer.append_data(renderer.render(data))
+                if on_frame is not None:
+                    on_frame(index)
+        finally:
+            writer.close()
+    os.replace(temporary, path)
+    return path
 
 
 class VideoRecorder:
@@ -20,7 +81,7 @@ class VideoRecorder:
         self,
         sim: A1Sim,
         path: str | Path,
-        fps: int = 30,
+        fps: int = VIDEO_FPS,
         width: int = 640,
         height: int = 480,
         view: CameraView | None = None,
