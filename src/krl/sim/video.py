@@ -13,7 +13,6 @@ import numpy as np
 from krl.sim.render import CameraView, FrameRenderer
 from krl.sim.robot import A1Sim
 
-
 VIDEO_FPS: int = 30
 """Frames per second of simulated time in krl's videos."""
 
