@@ -250,3 +250,30 @@ def test_every_readme_command_runs(command, workspace, tmp_path, monkeypatch):
         assert done.returncode == 0, done.stderr
     else:
         assert main(argv) == 0
+
+
+WRITTEN: tuple[str, ...] = (
+    "demo/path.png",
+    "demo-gait/metrics.md",
+    "onnx/contract.json",
+    "data/base/manifest.json",
+    "figures/agent/curves.png",
+    "videos/run.mp4",
+    "walk.mp4",
+    "seesaw.png",
+    "report/evaluation.md",
+    "evaluations/mine/summary.json",
+    "runs/agent-rp/policy.npz",
+)
+"""Files the commands of the README and docs/cli.md write into the working folder (their ``--out``)."""
+
+
+@pytest.mark.skipif(shutil.which("git") is None, reason="needs git")
+def test_what_the_commands_write_is_ignored_by_git():
+    root = README.parent
+    if not (root / ".git").exists():
+        pytest.skip("not a git checkout")
+    result = subprocess.run(
+        ["git", "check-ignore", "--no-index", *WRITTEN], cwd=root, capture_output=True, text=True
+    )
+    assert sorted(result.stdout.split()) == sorted(WRITTEN)

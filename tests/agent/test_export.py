@@ -47,7 +47,7 @@ def test_exported_kernel_and_policy_match_numpy_inference(tmp_path, capsys):
         "unit": "m/s",
     }
     assert contract["policy"]["action"]["filter_alpha"] == 0.1
-    assert contract["kernel"]["sha256"] == contract["policy"]["kernel_sha256"]
+    assert contract["kernel"]["source"]["sha256"] == contract["policy"]["kernel_sha256"]
     assert contract["joint_order"][:3] == ["FR_abduction", "FR_hip", "FR_knee"]
 
 
@@ -89,6 +89,18 @@ def test_the_ext_kernel_alone(tmp_path, capsys):
     assert "policy" not in files
 
 
+def test_export_takes_an_agent_as_krl_evaluate_spells_it(tmp_path, capsys):
+    out = tmp_path / "onnx"
+    assert main(["export", "--out", str(out), "--policy", "agent:gait-ground@215", "--json"]) == 0
+    capsys.readouterr()
+    policy = json.loads((out / "contract.json").read_text())["policy"]
+    assert (policy["seed_group"], policy["seed"], policy["source"]["file"]) == (
+        "gait-ground",
+        215,
+        "seed215.npz",
+    )
+
+
 def test_shipped_names_resolve_for_the_policy_and_its_kernel(tmp_path, capsys):
     from krl.kernel.registry import shipped_model_path
     from krl.util.hashing import file_sha256
@@ -97,7 +109,10 @@ def test_shipped_names_resolve_for_the_policy_and_its_kernel(tmp_path, capsys):
     assert main(["export", "--out", str(out), "--policy", "rp", "--kernel", "base", "--json"]) == 0
     files = json.loads(capsys.readouterr().out)
     contract = json.loads(Path(files["contract"]).read_text())
-    assert contract["kernel"]["sha256"] == file_sha256(shipped_model_path("base"))
+    assert contract["kernel"]["source"]["sha256"] == file_sha256(shipped_model_path("base"))
+    for role in ("kernel", "policy"):  # each file the contract lists is hashed as it was written
+        assert contract[role]["sha256"] == file_sha256(out / contract[role]["file"])
+    assert (contract["policy"]["seed_group"], contract["policy"]["seed"]) == ("rp", 150)
     assert contract["policy"]["action"]["size"] == 12
     before = {path.name: path.read_bytes() for path in out.iterdir()}
     assert main(["export", "--out", str(out), "--policy", "rp", "--kernel", "ext"]) == 2

@@ -10,7 +10,8 @@ The graphs are built from the same NumPy arrays krl's own inference uses (``Kern
 * ``contract.json``: the observation's terms in order with slices and units, the kernel's input names, the
   action's parts in order (:mod:`krl.agent.action`: slice, unit, each number's name, the values -1, 0
   and +1 map to, the filter each passes through), the residual bound [m] and the filter's α, the control
-  and physics steps, the foot and joint order, and the SHA-256 of the kernel and policy files.
+  and physics steps, the foot and joint order; for each graph, the SHA-256 of the ONNX file and of the
+  krl file it was made from (``source``), and for the policy its seed group and training seed.
 
 An export leaves its folder consistent: every graph is built before the first file is written, the contract
 is written last, and a kernel-only export refuses a folder that holds a ``policy.onnx`` (of an earlier
@@ -141,8 +142,19 @@ def policy_onnx(policy):
     return graph.model("observation", policy.observation_size, "action", actions, "krl residual policy")
 
 
-def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = None) -> dict[str, Any]:
-    """What the exported graphs mean (module docstring)."""
+def contract(
+    kernel,
+    kernel_path: Path,
+    policy=None,
+    policy_path: Path | None = None,
+    graphs: dict[str, bytes] | None = None,
+    seed_group: str | None = None,
+) -> dict[str, Any]:
+    """What the exported graphs mean (module docstring). ``graphs``: the ONNX files' bytes by role
+    (``kernel``, ``policy``), hashed into the contract; ``seed_group``: the seed group the policy was taken
+    from (a shipped agent's name or a folder), None for a policy file named alone."""
+    import hashlib
+
     from krl.agent.observation import layout
     from krl.kernel.features import input_names
     from krl.robots.a1.constants import JOINT_NAMES, LEG_NAMES
@@ -151,7 +163,7 @@ def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = 
 
     document: dict[str, Any] = {
         "format": "krl-export",
-        "version": 1,
+        "version": 2,
         "control_dt": CONTROL_DT,
         "physics_dt": PHYSICS_DT,
         "command_dt": COMMAND_DT,
@@ -160,7 +172,8 @@ def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = 
         "kernel": {
             "file": KERNEL_FILE,
             "variant": kernel.variant,
-            "sha256": file_sha256(kernel_path),
+            "sha256": hashlib.sha256(graphs["kernel"]).hexdigest() if graphs else None,
+            "source": {"file": kernel_path.name, "sha256": file_sha256(kernel_path)},
             "inputs": input_names(kernel.variant),
             "outputs": "foot targets in the base frame [m], leg-major (foot_order) x (x, y, z)",
         },
@@ -168,7 +181,10 @@ def contract(kernel, kernel_path: Path, policy=None, policy_path: Path | None = 
     if policy is not None:
         document["policy"] = {
             "file": POLICY_FILE,
-            "sha256": file_sha256(policy_path),
+            "sha256": hashlib.sha256(graphs["policy"]).hexdigest() if graphs else None,
+            "source": {"file": policy_path.name, "sha256": file_sha256(policy_path)},
+            "seed_group": seed_group,
+            "seed": policy.metadata.get("training", {}).get("seed"),
             "observation": [
                 {"name": r["name"], "start": r["start"], "stop": r["stop"], "unit": r["unit"]}
                 for r in layout(policy.config.observation.features)
@@ -203,22 +219,30 @@ def _action_contract(residual, kernel) -> dict[str, Any]:
     return action
 
 
-def _load(policy: str | None, kernel: str | None) -> tuple[Any, Path, Any, Path | None]:
-    """The policy (or None) and the kernel to export, with their files: ``(kernel, kernel file, policy,
-    policy file)``. Names of shipped models (``base``, ``ext``; ``rp``, ``base``) resolve to their files."""
-    from krl.agent.policy import check_kernel_file, load_policy, one_policy
+def _load(policy: str | None, kernel: str | None) -> tuple[Any, Path, Any, Path | None, str | None]:
+    """The policy (or None) and the kernel to export, with their files and the policy's seed group:
+    ``(kernel, kernel file, policy, policy file, seed group)``. Names of shipped models (``base``, ``ext``;
+    ``rp``, ``gait-ground``, also as ``krl evaluate`` spells them: ``agent:gait-ground``) resolve to their
+    files; a seed group gives its first seed's (``@SEED`` picks another)."""
+    from krl.agent.policy import check_kernel_file, load_policy, policy_artifacts
     from krl.kernel.model import load_kernel
     from krl.kernel.registry import resolve_model
 
     kernel_file = None if kernel is None else resolve_model(kernel)
-    loaded_policy, policy_path = None, None
+    loaded_policy, policy_path, seed_group = None, None, None
     if policy is not None:
-        _, policy_path = one_policy(policy)
+        text = policy.removeprefix("agent:")
+        name, files = policy_artifacts(text)
+        seed, policy_path = files[0]
+        if seed is not None:  # a group: its first seed's
+            seed_group = name
+        elif "@" in text:  # one seed picked from a group
+            seed_group = policy_artifacts(text.rpartition("@")[0])[0]
         loaded_policy = load_policy(policy_path, check_kernel=False)
         kernel_path = check_kernel_file(loaded_policy, kernel_file, policy_path)
     else:
         kernel_path = kernel_file or resolve_model(DEFAULT_KERNEL)
-    return load_kernel(kernel_path), kernel_path, loaded_policy, policy_path
+    return load_kernel(kernel_path), kernel_path, loaded_policy, policy_path, seed_group
 
 
 def export(out: str | Path, policy: str | None = None, kernel: str | None = None) -> dict[str, Any]:
@@ -230,7 +254,7 @@ def export(out: str | Path, policy: str | None = None, kernel: str | None = None
     kernel-only export into a folder that holds a ``policy.onnx`` (module docstring).
     """
     out = Path(out)
-    loaded_kernel, kernel_path, loaded_policy, policy_path = _load(policy, kernel)
+    loaded_kernel, kernel_path, loaded_policy, policy_path, seed_group = _load(policy, kernel)
     if loaded_policy is None and (out / POLICY_FILE).exists():
         raise ValueError(
             f"{out / POLICY_FILE} is left from an earlier export, and this kernel-only export's "
@@ -239,7 +263,8 @@ def export(out: str | Path, policy: str | None = None, kernel: str | None = None
     outputs = {"kernel": (KERNEL_FILE, kernel_onnx(loaded_kernel).SerializeToString())}
     if loaded_policy is not None:
         outputs["policy"] = (POLICY_FILE, policy_onnx(loaded_policy).SerializeToString())
-    document = contract(loaded_kernel, kernel_path, loaded_policy, policy_path)
+    graphs = {role: data for role, (_, data) in outputs.items()}
+    document = contract(loaded_kernel, kernel_path, loaded_policy, policy_path, graphs, seed_group)
     outputs["contract"] = (CONTRACT_FILE, json.dumps(document, indent=2) + "\n")
     written = {}
     for role, (name, data) in outputs.items():  # the contract last

@@ -35,7 +35,9 @@ def register(subparsers) -> None:
         help="output folder; a kernel-only export refuses one that holds a policy.onnx (delete it first)",
     )
     p.add_argument(
-        "--policy", help=f"shipped agent ({SHIPPED_AGENTS}) or a policy file; its kernel is exported with it"
+        "--policy",
+        help=f"shipped agent ({SHIPPED_AGENTS}; also agent:NAME, NAME@SEED), a seed group or a policy file; "
+        "its kernel is exported with it",
     )
     p.add_argument(
         "--kernel",
