@@ -15,7 +15,8 @@ ways to ask PPO for it (rsl_rl's symmetry configuration; Mittal et al., ICRA 202
     value function, times ``vf_coef``).
 
 Both log ``train/mirror_error`` (the first of those two squared differences, before the step), so every
-run, the unsymmetric one too, can say how symmetric its policy is. With ``symmetry = "none"`` krl trains
+symmetric run can say how symmetric its policy is. Both cost the network's forward and backward passes
+over twice the samples of SB3's update. With ``symmetry = "none"`` krl trains
 with SB3's own update (:class:`krl.agent.train.ThreadedPPO`); this update without mirror terms is SB3's
 step for step (``tests/agent/test_symmetric_ppo.py`` checks equal weights after an update).
 
@@ -88,31 +89,30 @@ def ppo_update(model, observation_mirror: SignedPermutation, action_mirror: Sign
 
 
 def _minibatch_loss(model, batch, clip_range: float, mirror_obs: NormalisedMirror, mirror_act):
-    """The loss of one minibatch and its logged parts (floats)."""
-    observations, actions = batch.observations, batch.actions
-    advantages, returns = batch.advantages, batch.returns
-    old_log_prob, old_values = batch.old_log_prob, batch.old_values
-    mirrored = mirror_obs(observations)
+    """The loss of one minibatch and its logged parts (floats). Both modes run the network once over the
+    B samples and once over their mirrors (what SB3's ``evaluate_actions`` computes, with the mean action),
+    and take the mirror error from those passes."""
+    advantages, returns, old_log_prob = batch.advantages, batch.returns, batch.old_log_prob
+    mirrored_obs, mirrored_actions = mirror_obs(batch.observations), mirror_act(batch.actions)
+    values, log_prob, entropy, means = _evaluate(model.policy, batch.observations, batch.actions)
+    mirror = _evaluate(model.policy, mirrored_obs, mirrored_actions)
+    action_error = functional.mse_loss(mirror[3], mirror_act(means))
     if model.symmetry == "augment":
-        observations = torch.cat([observations, mirrored])
-        actions = torch.cat([actions, mirror_act(actions)])
-        advantages, returns, old_log_prob, old_values = (
-            torch.cat([x, x]) for x in (advantages, returns, old_log_prob, old_values)
+        values, log_prob, entropy = (
+            torch.cat([x, y]) for x, y in zip((values, log_prob, entropy), mirror[:3], strict=True)
         )
-    values, log_prob, entropy = model.policy.evaluate_actions(observations, actions)
-    values = values.flatten()
+        advantages, returns, old_log_prob = (torch.cat([x, x]) for x in (advantages, returns, old_log_prob))
     if model.normalize_advantage and len(advantages) > 1:
         advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
     ratio = torch.exp(log_prob - old_log_prob)
     surrogate = torch.min(advantages * ratio, advantages * torch.clamp(ratio, 1 - clip_range, 1 + clip_range))
     policy_loss = -surrogate.mean()
     value_loss = functional.mse_loss(returns, values)
-    entropy_loss = -torch.mean(entropy) if entropy is not None else torch.mean(log_prob)
+    entropy_loss = -torch.mean(entropy)
     loss = policy_loss + model.ent_coef * entropy_loss + model.vf_coef * value_loss
-    action_error, value_error = _mirror_errors(model.policy, batch.observations, mirrored, mirror_act)
     if model.symmetry == "loss":
-        mirror_loss = action_error + model.vf_coef * value_error
-        loss = loss + model.mirror_loss_coef * mirror_loss
+        value_error = functional.mse_loss(mirror[0], values)
+        loss = loss + model.mirror_loss_coef * (action_error + model.vf_coef * value_error)
     with torch.no_grad():
         log_ratio = log_prob - old_log_prob
         logged = {
@@ -127,15 +127,14 @@ def _minibatch_loss(model, batch, clip_range: float, mirror_obs: NormalisedMirro
     return loss, logged
 
 
-def _mirror_errors(policy, observations, mirrored, mirror_act) -> tuple[torch.Tensor, torch.Tensor]:
-    """Mean squared ``π̄(M_o s) - M_a π̄(s)`` over actions and ``V(M_o s) - V(s)`` (π̄: the mean action)."""
-    both = torch.cat([observations, mirrored])
-    means = policy.get_distribution(both).distribution.mean
-    values = policy.predict_values(both).flatten()
-    half = len(observations)
-    action_error = functional.mse_loss(means[half:], mirror_act(means[:half]))
-    value_error = functional.mse_loss(values[half:], values[:half])
-    return action_error, value_error
+def _evaluate(policy, observations, actions) -> tuple[torch.Tensor, ...]:
+    """SB3's ``evaluate_actions`` of a policy whose actor and critic share their features, with the mean
+    action: ``(values (B,), log-probabilities (B,), entropies (B,), mean actions (B, A))``."""
+    latent_pi, latent_vf = policy.mlp_extractor(policy.extract_features(observations))
+    means = policy.action_net(latent_pi)
+    distribution = policy.action_dist.proba_distribution(means, policy.log_std)
+    values = policy.value_net(latent_vf).flatten()
+    return values, distribution.log_prob(actions), distribution.entropy(), means
 
 
 def _log(model, logs: dict[str, list[float]], clip_range: float) -> None:
