@@ -75,16 +75,27 @@ class SignalledWhileCollected:
         os.kill(os.getpid(), signal.SIGTERM)
 
 
-def test_a_stop_signal_whose_exception_a_finaliser_swallowed_still_stops(monkeypatch):
-    swallowed = []
-    monkeypatch.setattr(sys, "unraisablehook", lambda unraisable: swallowed.append(unraisable.exc_type))
+class FailsWhileCollected:
+    """An object whose finaliser fails: Python reports it through ``sys.unraisablehook``."""
+
+    def __del__(self) -> None:
+        raise RuntimeError("a finaliser's own error")
+
+
+def test_a_stop_signal_whose_exception_a_finaliser_swallowed_still_stops_and_says_nothing(monkeypatch):
+    reported = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda unraisable: reported.append(unraisable.exc_type))
     went_on = False
     with pytest.raises(Interrupted) as caught:
         with signals_raise():
             SignalledWhileCollected()  # collected at once
             went_on = True  # as a training would: the stop was lost here
+            FailsWhileCollected()  # any other error a finaliser swallows is reported as before
             raise_if_interrupted()
-    assert swallowed == [Interrupted] and went_on and caught.value.signum == signal.SIGTERM
+    # the swallowed stop is not reported ("Exception ignored in ..." and a traceback on stderr): it stops
+    assert reported == [RuntimeError] and went_on and caught.value.signum == signal.SIGTERM
+    FailsWhileCollected()  # outside the scope the hook is the one before it
+    assert reported == [RuntimeError, RuntimeError]
     with pytest.raises(Interrupted):  # a scope that ends without looking raises it on exit
         with signals_raise():
             SignalledWhileCollected()

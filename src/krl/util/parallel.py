@@ -200,16 +200,33 @@ def raise_if_interrupted() -> None:
 def signals_raise(signums: Sequence[signal.Signals] = _STOP_SIGNALS) -> Iterator[None]:
     """Inside: ``signums`` (SIGINT and SIGTERM) raise :class:`Interrupted` (main thread only; an ignored
     signal stays ignored). The previous handlers come back on exit; a signal whose exception was
-    swallowed (:func:`raise_if_interrupted`) raises :class:`Interrupted` there."""
+    swallowed (:func:`raise_if_interrupted`) raises :class:`Interrupted` there. Swallowed where Python
+    reports it (``sys.unraisablehook``: "Exception ignored in ..." and a traceback on stderr), it is not
+    reported: it is kept and raised later, so nothing was lost (:func:`_quiet_about_interrupted`)."""
     mark = len(_received)
+    previous_hook = sys.unraisablehook
+    sys.unraisablehook = _quiet_about_interrupted(previous_hook)
     try:
         with _handlers(_raise_interrupted, signums):
             yield
         swallowed = _received[mark:]
     finally:
         del _received[mark:]
+        sys.unraisablehook = previous_hook
     if swallowed:
         raise Interrupted(swallowed[-1])
+
+
+def _quiet_about_interrupted(previous: Callable[[Any], None]) -> Callable[[Any], None]:
+    """A ``sys.unraisablehook`` that says nothing of an :class:`Interrupted` a finaliser swallowed (the
+    handler kept its signal, which :func:`signals_raise` raises at a safe point) and passes anything else
+    on to ``previous``."""
+
+    def hook(unraisable: Any) -> None:
+        if not isinstance(unraisable.exc_value, Interrupted):
+            previous(unraisable)
+
+    return hook
 
 
 @contextmanager
