@@ -92,3 +92,36 @@ def test_an_unknown_symmetry_mode_is_refused_in_one_line():
         PPOConfig(symmetry="mirror")
     with pytest.raises(AgentConfigError, match="mirror_loss_coef"):
         PPOConfig(symmetry="loss", mirror_loss_coef=float("nan"))
+
+
+def test_a_symmetric_run_whose_observation_the_mirror_misses_is_refused_before_anything_is_written(
+    tmp_path, monkeypatch, small_config
+):
+    from dataclasses import replace
+
+    import krl.agent.symmetry
+    from krl.agent.train import TrainingError, train
+
+    mirrors = dict(krl.agent.symmetry.FEATURE_MIRRORS)
+    del mirrors["foot_contact"]  # a feature added to the observation without its mirror
+    monkeypatch.setattr(krl.agent.symmetry, "FEATURE_MIRRORS", mirrors)
+    config = replace(small_config, ppo=replace(small_config.ppo, symmetry="augment"))
+    with pytest.raises(
+        TrainingError, match="symmetry 'augment': no mirror for observation feature 'foot_contact'"
+    ):
+        train(tmp_path / "run", config, seed=1, total_steps=256, progress=False)
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_symmetric_run_trains_logs_its_mirror_error_and_saves_its_mode(tmp_path, small_config):
+    import csv
+    from dataclasses import replace
+
+    from krl.agent.policy import load_policy
+    from krl.agent.train import train
+
+    config = replace(small_config, ppo=replace(small_config.ppo, symmetry="loss"))
+    train(tmp_path / "run", config, seed=1, total_steps=512, progress=False, log=lambda _: None)
+    rows = list(csv.DictReader((tmp_path / "run" / "progress.csv").open()))
+    assert len(rows) == 2 and all(float(row["train/mirror_error"]) >= 0 for row in rows)
+    assert load_policy(tmp_path / "run" / "policy.npz").config.ppo.symmetry == "loss"

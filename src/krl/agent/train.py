@@ -196,7 +196,8 @@ def train(
 
     Raises:
         TrainingError: (one line, before anything is written) a run folder or checkpoint that cannot be
-            used, ``total_steps`` or ``update_threads`` below 1.
+            used, ``total_steps`` or ``update_threads`` below 1, a symmetric PPO whose observation or action
+            the mirror does not cover.
     """
     out = Path(out)
     if total_steps is not None and total_steps < 1:
@@ -204,6 +205,10 @@ def train(
     if update_threads < 1:
         raise TrainingError(f"update_threads must be at least 1, got {update_threads}")
     device = training_device(device)
+    if config is not None and config.ppo.symmetry != "none":  # refused before the run folder is written
+        from krl.kernel.registry import resolve_model
+
+        mirrors(config, str(resolve_model(config.residual.kernel)))
     config, run = open_run(out, config, seed, init_from, workers, num_envs, device)
     total = config.total_steps if total_steps is None else total_steps
     latest = latest_checkpoint(out)
