@@ -41,13 +41,30 @@ NEGATIVE_VALUE = re.compile(r"^-\.?\d")
 class HelpFormatter(argparse.HelpFormatter):
     """argparse's help layout, wrapped at spaces only: a hyphenated name (``gait-ground``,
     ``--friction-sweep``) stays whole on one line instead of breaking after a hyphen, in an option's help
-    (``_split_lines``) as in a description (``_fill_text``)."""
+    (``_split_lines``) as in a description (``_fill_text``, whose paragraphs, split by a blank line, each
+    start on a line of their own). An option with a default its help does not mention gets
+    ``(default VALUE)`` appended (:func:`shows_default`)."""
 
     def _split_lines(self, text: str, width: int) -> list[str]:
         return textwrap.wrap(" ".join(text.split()), width, break_on_hyphens=False)
 
     def _fill_text(self, text: str, width: int, indent: str) -> str:
-        return "\n".join(indent + line for line in self._split_lines(text, width - len(indent)))
+        lines = [line for part in text.split("\n\n") for line in self._split_lines(part, width - len(indent))]
+        return "\n".join(indent + line for line in lines)
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if shows_default(action) and "default" not in text:
+            text += " (default %(default)s)"
+        return text
+
+
+def shows_default(action: argparse.Action) -> bool:
+    """Whether ``action``'s help must show a default: it takes a value and has one that is not None (a flag's
+    False, --help and --version have none to show)."""
+    if action.nargs == 0 or action.default in (None, argparse.SUPPRESS):
+        return False
+    return bool(action.option_strings) or action.nargs in ("?", "*")
 
 
 class Parser(argparse.ArgumentParser):
@@ -176,6 +193,33 @@ def default_of(owner: Any, name: str) -> Any:
     raise KeyError(f"{owner.__name__} has no {name!r} with a default")
 
 
+def shown(value: Any) -> str:
+    """A default as a help text writes it: a number as ``%g`` would (600.0 is 600), a sequence as a comma
+    list of those."""
+    if isinstance(value, (list, tuple)):
+        return ",".join(shown(item) for item in value)
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def add_field_option(
+    parser: argparse.ArgumentParser, flag: str, owner: Any, name: str | None = None, **options: Any
+) -> argparse.Action:
+    """Add ``flag``, an option that sets field ``name`` (default: the flag's name, ``--push-seed`` ->
+    ``push_seed``) of dataclass ``owner``, or parameter ``name`` of function ``owner``: its value is None
+    unless given (pass it on with :func:`given`), and its help ends with the owner's default
+    (:func:`default_of`), so that the default is written once, in the owner; a help holding ``{default}``
+    gets the value there instead. ``options`` go to ``add_argument``."""
+    field = name or flag.lstrip("-").replace("-", "_")
+    text, value = options.pop("help", ""), shown(default_of(owner, field))
+    if "{default}" in text:
+        text = text.replace("{default}", value)
+    else:
+        text = f"{text} (default {value})".strip()
+    return parser.add_argument(flag, help=text, **options)
+
+
 def parse_params(items: Sequence[str] | None) -> dict[str, Any]:
     """``["max_height=0.04", "num_steps=6"]`` -> ``{"max_height": 0.04, "num_steps": 6}``."""
     params: dict[str, Any] = {}
@@ -242,13 +286,20 @@ def labelled_policies(texts: Sequence[str], resolve: Callable[[str], tuple[str, 
 
 
 def add_terrain_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--terrain``, ``--param KEY=VALUE`` and ``--seed``."""
-    parser.add_argument("--terrain", default="flat", help="terrain name (see `krl terrains`)")
+    """``--terrain``, ``--param KEY=VALUE`` and ``--seed`` (defaults: :func:`krl.sim.model.build_model`'s)."""
+    from krl.sim.model import build_model
+
+    parser.add_argument(
+        "--terrain", default=default_of(build_model, "terrain"), help="terrain name (see `krl terrains`)"
+    )
     parser.add_argument(
         "--param", action="append", metavar="KEY=VALUE", help="terrain parameter override (repeatable)"
     )
     parser.add_argument(
-        "--seed", type=int, default=0, help="seed of the run's random draws (terrain, waypoints)"
+        "--seed",
+        type=int,
+        default=default_of(build_model, "seed"),
+        help="seed of the run's random draws (terrain, waypoints)",
     )
 
 
@@ -292,23 +343,22 @@ def expert_params_from_args(args: argparse.Namespace):
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of every ``… run`` command: waypoints or a fixed command, video, JSON."""
-    from krl.task import TARGET_TIME_LIMIT
+    """Options of every ``… run`` command: waypoints or a fixed command, video, JSON (defaults:
+    :class:`krl.task.walk.WalkPlan`)."""
+    from krl.task.walk import WalkPlan
 
     add_terrain_arguments(parser)
-    parser.add_argument(
-        "--targets", type=int, default=5, help="number of random waypoints (seeded by --seed)"
+    add_field_option(
+        parser, "--targets", WalkPlan, type=int, help="number of random waypoints (seeded by --seed)"
     )
     parser.add_argument("--target", action="append", metavar="X,Y", help="a given waypoint (repeatable)")
-    parser.add_argument(
-        "--target-time-limit",
-        type=float,
-        help=f"time allowed per waypoint [s] (default {TARGET_TIME_LIMIT:g})",
+    add_field_option(
+        parser, "--target-time-limit", WalkPlan, type=float, help="time allowed per waypoint [s]"
     )
     parser.add_argument(
         "--command", metavar="VX,VY,WZ", help="walk at a fixed command instead of to waypoints"
     )
-    parser.add_argument("--duration", type=float, default=10.0, help="with --command: run length [s]")
+    add_field_option(parser, "--duration", WalkPlan, type=float, help="with --command: run length [s]")
     parser.add_argument("--video", help="write an MP4 of the run")
     parser.add_argument(
         "--video-size",
@@ -337,58 +387,29 @@ def parse_size(text: str, what: str) -> tuple[int, int]:
     return size
 
 
+def walk_plan_from_args(args: argparse.Namespace):
+    """The :class:`krl.task.walk.WalkPlan` of :func:`add_run_arguments`' options (fields not given keep
+    their defaults)."""
+    from krl.task.walk import WalkPlan
+
+    command = None if args.command is None else tuple(parse_vector(args.command, 3, "--command"))
+    waypoints = tuple(tuple(parse_vector(text, 2, "--target")) for text in args.target or ())
+    size = None if args.video_size is None else parse_size(args.video_size, "--video-size")
+    return WalkPlan(
+        terrain=args.terrain,
+        params=parse_params(args.param),
+        seed=args.seed,
+        waypoints=waypoints,
+        command=command,
+        video=args.video,
+        video_size=size,
+        **given(targets=args.targets, duration=args.duration, target_time_limit=args.target_time_limit),
+    )
+
+
 def run_controller(args: argparse.Namespace, controller, step_hook=None) -> dict[str, Any]:
-    """Run ``controller`` as :func:`add_run_arguments`' options say; returns the summary printed by ``run``.
+    """Walk ``controller`` as :func:`add_run_arguments`' options say (:func:`krl.task.walk.walk`); returns
+    the summary printed by ``run``. ``step_hook()`` is called after every control step."""
+    from krl.task.walk import walk
 
-    ``step_hook()`` is called after every control step (e.g. to collect timings).
-    """
-    import numpy as np
-
-    from krl.task import random_targets
-    from krl.task.runner import Runner
-
-    if args.command is None and not args.target and args.targets < 1:
-        raise CliError(f"--targets must be >= 1, got {args.targets}")
-    size = parse_size(args.video_size or video_size_default(), "--video-size")
-    sim = build_sim(args)
-    recorder = None
-    if args.video:
-        from krl.sim.video import VideoRecorder
-
-        recorder = VideoRecorder(sim, args.video, width=size[0], height=size[1])
-
-    def on_step(record) -> None:
-        if step_hook is not None:
-            step_hook()
-        if recorder is not None:
-            recorder.capture()
-
-    runner = Runner(sim, controller, on_step=on_step)
-    try:
-        if args.command is not None:
-            command = np.array(parse_vector(args.command, 3, "--command"))
-            result = runner.hold_command(command, args.duration)
-            targets = np.zeros((0, 2))
-        else:
-            if args.target:
-                targets = np.array([parse_vector(t, 2, "--target") for t in args.target])
-            else:
-                targets = random_targets(np.random.default_rng(args.seed), args.targets, sim.terrain.spawn_xy)
-            result = runner.walk_to(targets, **given(target_time_limit=args.target_time_limit))
-    finally:
-        if recorder is not None:
-            recorder.close()
-    summary: dict[str, Any] = {
-        "targets": len(targets),
-        "targets_reached": result.targets_reached,
-        "fell": result.fell,
-        "timed_out": result.timed_out,
-        "sim_seconds": round(result.sim_seconds, 3),
-        "wall_seconds": round(result.wall_seconds, 3),
-        "real_time_factor": round(result.sim_seconds / max(result.wall_seconds, 1e-9), 2),
-        "mean_velocity": [round(v, 4) for v in result.mean_velocity()],
-        "terrain": sim.terrain.name,
-    }
-    if args.video:
-        summary["video"] = str(args.video)
-    return summary
+    return walk(walk_plan_from_args(args), controller, step_hook)
