@@ -8,10 +8,17 @@ import os
 import shlex
 import sys
 from pathlib import Path
-from typing import Any
 
-from krl.cli.common import SHIPPED_AGENTS, default_of, emit, given, interrupted_status, parse_ints
-from krl.eval.courses import HARDER_COURSES, SHIPPED_COURSES, THESIS_COURSES
+from krl.cli.common import (
+    SHIPPED_AGENTS,
+    add_field_option,
+    default_of,
+    emit,
+    given,
+    interrupted_status,
+    parse_ints,
+)
+from krl.eval.courses import SHIPPED_COURSES
 
 
 def _magnitudes(text: str) -> tuple[float, ...]:
@@ -48,10 +55,7 @@ def _frictions(text: str) -> tuple[float, ...]:
 
 
 def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
-    from krl.eval.episodes import PUSH_DIRECTION_DRAWS, FrictionSweep, PushSweep
-
-    magnitudes = default_of(PushSweep, "magnitudes")
-
+    """``krl evaluate``'s options: what to score, the sweeps, where results and videos go."""
     parser.add_argument(
         "--controller",
         action="append",
@@ -71,40 +75,53 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
         "Tables 5.1-5.4), `harder` (their harder variants) or `all` (repeatable; default: thesis, unless "
         "a sweep alone)",
     )
+    _add_push_arguments(parser)
+    _add_friction_arguments(parser)
+    _add_output_arguments(parser)
+
+
+def _add_push_arguments(parser: argparse.ArgumentParser) -> None:
+    """The push sweep's options (defaults: :class:`krl.eval.episodes.PushSweep`)."""
+    from krl.eval.episodes import PUSH_DIRECTION_DRAWS, PushSweep
+
+    magnitudes = default_of(PushSweep, "magnitudes")
     parser.add_argument("--push-sweep", action="store_true", help="run the push robustness sweep (Table 5.5)")
     parser.add_argument(
         "--magnitudes",
         help="push sweep forces [N]: LOW:HIGH:STEP or a list "
         f"(default {len(magnitudes)} forces, {min(magnitudes):g} to {max(magnitudes):g})",
     )
-    parser.add_argument(
-        "--attempts",
-        type=int,
-        help=f"push sweep attempts per magnitude (default {default_of(PushSweep, 'attempts')})",
+    add_field_option(parser, "--attempts", PushSweep, help="push sweep attempts per magnitude", type=int)
+    add_field_option(
+        parser, "--push-seed", PushSweep, "seed", help="seed of the push sweep's random pushes", type=int
     )
-    parser.add_argument(
-        "--push-seed",
-        type=int,
-        help=f"seed of the push sweep's random pushes (default {default_of(PushSweep, 'seed')})",
-    )
-    parser.add_argument(
+    add_field_option(
+        parser,
         "--push-directions",
+        PushSweep,
+        "directions",
         choices=PUSH_DIRECTION_DRAWS,
         help="how the push sweep draws each attempt's direction: uniform (azimuth ~ U(-π, π), the thesis's) "
         "or balanced (attempt a in quarter a mod 4 of forward, left, backward, right around the robot's "
-        "heading at the push; needs --attempts divisible by 4) "
-        f"(default {default_of(PushSweep, 'directions')})",
+        "heading at the push; needs --attempts divisible by 4)",
     )
+
+
+def _add_friction_arguments(parser: argparse.ArgumentParser) -> None:
+    """The friction sweep's options (defaults: :class:`krl.eval.episodes.FrictionSweep`)."""
+    from krl.eval.episodes import FrictionSweep
+
     parser.add_argument(
         "--friction-sweep",
         action="store_true",
         help="run the friction sweep: the sweep's courses from every start at each ground friction μ",
     )
-    parser.add_argument(
+    add_field_option(
+        parser,
         "--frictions",
+        FrictionSweep,
         metavar="LIST",
-        help="friction sweep's ground friction coefficients μ, a comma list "
-        f"(default {','.join(f'{mu:g}' for mu in default_of(FrictionSweep, 'frictions'))})",
+        help="friction sweep's ground friction coefficients μ, a comma list",
     )
     parser.add_argument(
         "--friction-course",
@@ -113,6 +130,10 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
         help="a course of the friction sweep, a shipped one or a file (repeatable; default "
         f"{', '.join(default_of(FrictionSweep, 'courses'))})",
     )
+
+
+def _add_output_arguments(parser: argparse.ArgumentParser) -> None:
+    """Seeds, processes, the results folder, videos and the summary's form."""
     parser.add_argument(
         "--seeds",
         help="training seeds to score, for seed groups (the agent: one policy per seed; default: all "
@@ -130,15 +151,15 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
 
 
-def _courses(names: list[str] | None):
-    """The courses of ``--course`` options, each once; two different courses of one name are refused."""
-    from krl.eval.courses import distinct_courses, load_course
+def summary_epilog() -> str:
+    """``krl evaluate --help``'s list of the summary's fields (:data:`krl.eval.summaries.SUMMARY_FIELDS`)."""
+    from krl.eval.summaries import SUMMARY_FIELDS
+    from krl.util.rounding import RULE
 
-    sets = {"thesis": THESIS_COURSES, "harder": HARDER_COURSES, "all": SHIPPED_COURSES}
-    expanded: list[str] = []
-    for name in names or []:
-        expanded += list(sets.get(name, (name,)))
-    return distinct_courses([load_course(name) for name in dict.fromkeys(expanded)])
+    fields = [f"{name}: {text}" for name, text in SUMMARY_FIELDS.items()]
+    return "\n\n".join(
+        ["The summary (text, or JSON with --json) holds:", *fields, f"Numbers are rounded: {RULE}."]
+    )
 
 
 def push_sweep_from_args(args: argparse.Namespace):
@@ -161,88 +182,55 @@ def friction_sweep_from_args(args: argparse.Namespace):
     return FrictionSweep(**given(frictions=frictions, courses=courses))
 
 
-def run_evaluate(args: argparse.Namespace) -> int:
-    from krl.eval import evaluate, summaries
+def evaluation_from_args(args: argparse.Namespace):
+    """The :class:`krl.eval.evaluate.Evaluation` that ``krl evaluate``'s options describe."""
     from krl.eval.controllers import distinct_controllers, parse_controller
+    from krl.eval.courses import courses_named
+    from krl.eval.evaluate import Evaluation
+
+    names = args.course if args.course or args.push_sweep or args.friction_sweep else ["thesis"]
+    return Evaluation(
+        controllers=tuple(distinct_controllers([parse_controller(text) for text in args.controller])),
+        courses=tuple(courses_named(names or [])),
+        out=Path(args.out),
+        push=push_sweep_from_args(args) if args.push_sweep else None,
+        friction=friction_sweep_from_args(args) if args.friction_sweep else None,
+        seeds=None if args.seeds is None else tuple(parse_ints(args.seeds, "--seeds")),
+        video=Path(args.video) if args.video else None,
+        video_all=args.video_all,
+        workers=args.workers,
+        command="krl " + shlex.join(args.argv),
+    )
+
+
+def run_evaluate(args: argparse.Namespace) -> int:
+    """``krl evaluate``: runs the evaluation with a progress bar and prints its summary."""
+    from krl.eval.evaluate import run_evaluation
     from krl.util.progress import progress_bar
 
-    specs = distinct_controllers([parse_controller(text) for text in args.controller])
-    names = args.course if args.course or args.push_sweep or args.friction_sweep else ["thesis"]
-    courses = _courses(names)
-    seeds = None if args.seeds is None else parse_ints(args.seeds, "--seeds")
-    sweep = push_sweep_from_args(args) if args.push_sweep else None
-    friction = friction_sweep_from_args(args) if args.friction_sweep else None
-    friction_courses = [] if friction is None else friction.load_courses()
-    out = Path(args.out)
-    video = Path(args.video) if args.video else None
-    tasks = []
-    for spec in specs:
-        tasks += evaluate.course_tasks(spec, courses, seeds, video, args.video_all)
-        if sweep is not None:
-            tasks += evaluate.push_tasks(spec, sweep, seeds, video)
-        if friction is not None:
-            tasks += evaluate.friction_tasks(spec, friction, friction_courses, seeds, video)
-    command = "krl " + shlex.join(args.argv)
-
-    def remember_command() -> None:  # once every option and stored result has been checked
-        for spec in specs:
-            _remember_command(out / spec.label / "commands.txt", command)
-
-    counts = dict.fromkeys(evaluate.HOW_DONE, 0)
+    evaluation = evaluation_from_args(args)
+    tasks = evaluation.tasks()
+    done = 0
     with progress_bar(not args.quiet, unit="runs", status=True) as bar:
         task_id = bar.add_task("evaluate", total=len(tasks), status="")
 
         def on_done(task, record, how: str) -> None:
-            counts[how] += 1
+            nonlocal done
+            done += 1
             metrics = record["metrics"]
             status = f"{task.controller.label} {task.key}: {metrics['targets_reached']}/{metrics['targets']}"
             bar.update(task_id, advance=1, status=status + (" fell" if metrics["fell"] else ""))
 
         try:
-            records = evaluate.execute(tasks, out, args.workers, on_done, remember_command)
+            summary = run_evaluation(evaluation, tasks, on_done)
         except KeyboardInterrupt as stop:
-            done = sum(counts.values())
             print(
                 f"krl: interrupted after {done} of {len(tasks)} runs; re-run the command to finish",
                 file=sys.stderr,
             )
             return interrupted_status(stop)
-    summary: dict[str, Any] = {"results": str(out), "runs": len(tasks), **counts, "controllers": {}}
-    if sweep is not None:
-        summary["push_sweep"] = {**sweep.to_dict(), "directions": sweep.directions}
-    for spec in specs:
-        mine = [r for t, r in zip(tasks, records, strict=True) if t.controller == spec]
-        entry: dict[str, Any] = {}
-        for course in courses:
-            runs = [r for r in mine if r.get("course") == course.name and "friction" not in r]
-            entry[course.name] = summaries.summarise_course(runs)
-            if spec.seeded:
-                entry[course.name]["by_seed"] = summaries.summarise_course_by_seed(runs)
-        if sweep is not None:
-            pushes = [r for r in mine if "magnitude" in r]
-            entry["push"] = summaries.summarise_push(pushes)
-            if spec.seeded:
-                entry["push_by_seed"] = summaries.summarise_push_by_seed(pushes)
-            entry["push_directions"] = summaries.summarise_push_directions(pushes)
-            entry["push_left_right"] = summaries.summarise_push_left_right(pushes)
-        if friction is not None:
-            grounds = [r for r in mine if "friction" in r]
-            entry["friction"] = summaries.summarise_friction(grounds)
-            if spec.seeded:
-                entry["friction_by_seed"] = summaries.summarise_friction_by_seed(grounds)
-        entry["wall_seconds"] = round(sum(r["metrics"]["wall_seconds"] for r in mine), 1)
-        summary["controllers"][spec.label] = entry
     emit(summary, args.json)
     return 0
-
-
-def _remember_command(path: Path, command: str) -> None:
-    """Append ``command`` to the controller's list of evaluate commands (once)."""
-    from krl.util.output import write_atomic
-
-    known = path.read_text().splitlines() if path.exists() else []
-    if command not in known:
-        write_atomic(path, "\n".join([*known, command]) + "\n")
 
 
 def add_report_arguments(parser: argparse.ArgumentParser) -> None:
@@ -265,7 +253,9 @@ def run_report(args: argparse.Namespace) -> int:
 def register(subparsers) -> None:
     """Add ``krl evaluate`` and ``krl report`` to the main parser's subcommands."""
     p = subparsers.add_parser(
-        "evaluate", help="score controllers on the courses, the push sweep or the friction sweep (resumable)"
+        "evaluate",
+        help="score controllers on the courses, the push sweep or the friction sweep (resumable)",
+        epilog=summary_epilog(),
     )
     add_evaluate_arguments(p)
     p.set_defaults(func=run_evaluate)

@@ -163,6 +163,23 @@ def distinct_courses(courses: Sequence[Course]) -> list[Course]:
     return list(kept.values())
 
 
+COURSE_SETS: dict[str, tuple[str, ...]] = {
+    "thesis": THESIS_COURSES,
+    "harder": HARDER_COURSES,
+    "all": SHIPPED_COURSES,
+}
+"""Names that stand for several shipped courses (``krl evaluate --course thesis``)."""
+
+
+def courses_named(names: Sequence[str]) -> list[Course]:
+    """The courses of ``names`` (shipped names, files, or a set of :data:`COURSE_SETS`), each once; two
+    different courses of one name are refused (:func:`distinct_courses`)."""
+    expanded: list[str] = []
+    for name in names:
+        expanded += list(COURSE_SETS.get(name, (name,)))
+    return distinct_courses([load_course(name) for name in dict.fromkeys(expanded)])
+
+
 def parse_course(data: dict[str, Any], source: str = "<course>") -> Course:
     """Validate a course's parsed TOML content and build the :class:`Course`."""
 

@@ -321,3 +321,80 @@ def execute(
 
     run_jobs(run_task, [served[key][0] for key in to_run], workers, on_result=finish)
     return [records[result_path(out, task)] for task in tasks]
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """What one ``krl evaluate`` call scores: every controller of ``controllers`` on each course of
+    ``courses``, on the push sweep ``push`` and the friction sweep ``friction`` where given, with results in
+    ``out``. ``seeds``: the training seeds of seed groups to score (None: all a group holds); ``video``: a
+    folder for MP4s of each course's first run (every run with ``video_all``); ``command``: the command line
+    remembered in each controller's ``commands.txt`` (None: nothing remembered)."""
+
+    controllers: tuple[ControllerSpec, ...]
+    courses: tuple[Course, ...]
+    out: Path
+    push: PushSweep | None = None
+    friction: FrictionSweep | None = None
+    seeds: tuple[int, ...] | None = None
+    video: Path | None = None
+    video_all: bool = False
+    workers: int = 1
+    command: str | None = None
+
+    def tasks(self) -> list[Task]:
+        """Every run of the evaluation, controller by controller: courses, then pushes, then frictions."""
+        friction_courses = [] if self.friction is None else self.friction.load_courses()
+        tasks: list[Task] = []
+        for spec in self.controllers:
+            tasks += course_tasks(spec, self.courses, self.seeds, self.video, self.video_all)
+            if self.push is not None:
+                tasks += push_tasks(spec, self.push, self.seeds, self.video)
+            if self.friction is not None:
+                tasks += friction_tasks(spec, self.friction, friction_courses, self.seeds, self.video)
+        return tasks
+
+
+def run_evaluation(
+    evaluation: Evaluation,
+    tasks: Sequence[Task],
+    on_done: Callable[[Task, dict[str, Any], str], None] | None = None,
+) -> dict[str, Any]:
+    """Run ``tasks`` (:meth:`Evaluation.tasks`) through :func:`execute`, remembering the command once every
+    option and stored result has been checked; returns the summary
+    (:func:`krl.eval.summaries.evaluation_summary`). ``on_done`` as :func:`execute`'s."""
+    from krl.eval.summaries import controller_entry, evaluation_summary
+
+    counts = dict.fromkeys(HOW_DONE, 0)
+
+    def done(task: Task, record: dict[str, Any], how: str) -> None:
+        counts[how] += 1
+        if on_done is not None:
+            on_done(task, record, how)
+
+    def remember_command() -> None:
+        for spec in evaluation.controllers if evaluation.command else ():
+            remember(evaluation.out / spec.label / "commands.txt", evaluation.command)
+
+    records = execute(tasks, evaluation.out, evaluation.workers, done, remember_command)
+    courses = [course.name for course in evaluation.courses]
+    entries = {
+        spec.label: controller_entry(
+            [r for t, r in zip(tasks, records, strict=True) if t.controller == spec],
+            courses,
+            spec.seeded,
+            evaluation.push is not None,
+            evaluation.friction is not None,
+        )
+        for spec in evaluation.controllers
+    }
+    sweep = evaluation.push
+    push = None if sweep is None else {**sweep.to_dict(), "directions": sweep.directions}
+    return evaluation_summary(entries, len(tasks), counts, str(evaluation.out), push)
+
+
+def remember(path: Path, command: str) -> None:
+    """Append ``command`` to the controller's list of evaluate commands ``path`` (once)."""
+    known = path.read_text().splitlines() if path.exists() else []
+    if command not in known:
+        write_atomic(path, "\n".join([*known, command]) + "\n")

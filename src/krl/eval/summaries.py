@@ -12,6 +12,8 @@ import statistics
 from collections.abc import Sequence
 from typing import Any
 
+from krl.util.rounding import readable
+
 
 def _mean_std(values: Sequence[float]) -> tuple[float, float]:
     """Mean and sample standard deviation (n - 1, as the thesis's tables); std 0 for a single value."""
@@ -265,3 +267,67 @@ def summarise_friction_by_seed(records: Sequence[dict[str, Any]]) -> list[dict[s
     return [
         {"seed": seed, **row} for seed, runs in by_seed(records).items() for row in summarise_friction(runs)
     ]
+
+
+SUMMARY_FIELDS: dict[str, str] = {
+    "results": "the results folder (--out)",
+    "runs": "the runs this call asked for",
+    "ran": "of those, run now",
+    "stored": "of those, read from --out, stored by an earlier call (resumed)",
+    "shared": "of those, copied from a run of the same controller under another label (one policy file "
+    "given two ways runs once)",
+    "push_sweep": "the push sweep's settings",
+    "controllers": "per controller label: per course runs, targets, reward per step, waypoints reached and "
+    "distance walked [m] (mean, std), success and fall rates (errors count as falls), error runs, mean "
+    "time to finish [s]; push: per magnitude [N] attempts, success rate with its 95 % interval "
+    "(success_low, success_high), fall rate, impulse [N·s], delta_v [m/s]; push_directions, push_left_right; "
+    "friction: per course and μ; *_by_seed: the same per training seed; wall_seconds: compute time of the "
+    "controller's runs",
+}
+"""The fields of ``krl evaluate``'s summary (:func:`evaluation_summary`), as its ``--help`` lists them."""
+
+
+def evaluation_summary(
+    entries: dict[str, dict[str, Any]],
+    runs: int,
+    counts: dict[str, int],
+    out: str,
+    push_sweep: dict[str, Any] | None,
+) -> dict[str, Any]:
+    """``krl evaluate``'s summary (fields: :data:`SUMMARY_FIELDS`), rounded as a person reads it
+    (:func:`krl.util.rounding.readable`): ``entries`` {label: :func:`controller_entry`}, ``runs`` of the
+    call, ``counts`` by how their record came ({ran, stored, shared}), ``push_sweep`` the sweep's settings or
+    None."""
+    summary: dict[str, Any] = {"results": out, "runs": runs, **counts, "controllers": {}}
+    if push_sweep is not None:
+        summary["push_sweep"] = push_sweep
+    summary["controllers"] = entries
+    return readable(summary)
+
+
+def controller_entry(
+    records: Sequence[dict[str, Any]], courses: Sequence[str], seeded: bool, push: bool, friction: bool
+) -> dict[str, Any]:
+    """One controller's part of :func:`evaluation_summary`: its ``records`` summarised per course (of
+    ``courses``), for the push sweep and the friction sweep where they ran, each also per training seed for
+    a ``seeded`` controller, and the wall time of its runs."""
+    entry: dict[str, Any] = {}
+    for course in courses:
+        runs = [r for r in records if r.get("course") == course and "friction" not in r]
+        entry[course] = summarise_course(runs)
+        if seeded:
+            entry[course]["by_seed"] = summarise_course_by_seed(runs)
+    if push:
+        pushes = [r for r in records if "magnitude" in r]
+        entry["push"] = summarise_push(pushes)
+        if seeded:
+            entry["push_by_seed"] = summarise_push_by_seed(pushes)
+        entry["push_directions"] = summarise_push_directions(pushes)
+        entry["push_left_right"] = summarise_push_left_right(pushes)
+    if friction:
+        grounds = [r for r in records if "friction" in r]
+        entry["friction"] = summarise_friction(grounds)
+        if seeded:
+            entry["friction_by_seed"] = summarise_friction_by_seed(grounds)
+    entry["wall_seconds"] = sum(r["metrics"]["wall_seconds"] for r in records)
+    return entry
