@@ -7,7 +7,16 @@ import sys
 from pathlib import Path
 
 from krl.cli import study
-from krl.cli.common import SHIPPED_AGENTS, CliError, emit, labelled_policies, run_controller
+from krl.cli.common import (
+    SHIPPED_AGENTS,
+    CliError,
+    add_field_option,
+    default_of,
+    emit,
+    given,
+    labelled_policies,
+    run_controller,
+)
 from krl.cli.common import add_run_arguments as add_common_run_arguments
 
 
@@ -177,13 +186,13 @@ def run_rhythm(args: argparse.Namespace) -> int:
         raise CliError(f"--rates must be positive numbers, got {args.rates!r}")
     from krl.task.runner import HOLD_RAMP, HOLD_SETTLE
 
-    if not args.seconds > HOLD_RAMP + HOLD_SETTLE:
+    if args.seconds is not None and not args.seconds > HOLD_RAMP + HOLD_SETTLE:
         raise CliError(
             f"--seconds must exceed the {HOLD_RAMP + HOLD_SETTLE:g} s command ramp and settling, "
             f"got {args.seconds}"
         )
-    terrains = args.terrain or ("flat", "heightfield_mild")
-    emit({"walks": clock_rate_walks(rates, terrains, seconds=args.seconds, kernel=args.kernel)}, args.json)
+    options = given(terrains=args.terrain, seconds=args.seconds, kernel=args.kernel)
+    emit({"walks": clock_rate_walks(rates, **options)}, args.json)
     return 0
 
 
@@ -191,8 +200,7 @@ def run_push(args: argparse.Namespace) -> int:
     from krl.analysis.push import PushProbe, push_trace, write_push_report
     from krl.eval.controllers import distinct_controllers, parse_controller
 
-    given = {} if args.at is None else {"start_time": args.at}
-    probe = PushProbe(magnitude=args.magnitude, direction=args.direction, **given)
+    probe = PushProbe(**given(magnitude=args.magnitude, direction=args.direction, start_time=args.at))
     specs = distinct_controllers([parse_controller(text) for text in args.controller or PUSH_CONTROLLERS])
     runs = {spec.driven_label: push_trace(probe, spec.build()) for spec in specs}
     written = write_push_report(probe, runs, Path(args.out))
@@ -345,10 +353,18 @@ PUSH_CONTROLLERS: tuple[str, ...] = ("agent", "expert", "kernel")
 
 
 def register(subparsers) -> None:
+    """Add ``krl agent`` and its subcommands to the main parser's subcommands."""
     group = subparsers.add_parser("agent", help="the residual PPO agent").add_subparsers(
         dest="agent_command", required=True, metavar="AGENT_COMMAND"
     )
     study.register(group)
+    for add in (_add_train, _add_run, _add_info, _add_curves, _add_stairs, _add_push, _add_heldout):
+        add(group)
+    _add_rhythm(group)
+
+
+def _add_train(group) -> None:
+    """``krl agent train``."""
     p = group.add_parser("train", help="train (or resume) a residual agent with PPO")
     p.add_argument("--out", required=True, help="run folder; an existing one resumes")
     p.add_argument("--seed", type=int, help="seed of the run (default 0)")
@@ -376,28 +392,45 @@ def register(subparsers) -> None:
         "--init-from",
         help="a new run starts from this run folder's newest checkpoint (fine-tuning; docs/agent.md)",
     )
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--json", action="store_true", help="print JSON")
+    _add_output(p, quiet=True)
     p.set_defaults(func=run_train)
 
-    def add_policy(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument(
-            "--policy",
-            default="rp",
-            help=f"shipped agent ({SHIPPED_AGENTS}), a policy file or a seed group; NAME@SEED picks a "
-            "group's seed (default: its first, rp is rp@150)",
-        )
 
+def _add_output(parser: argparse.ArgumentParser, quiet: bool = False) -> None:
+    """``--quiet`` (where ``quiet``) and ``--json``."""
+    if quiet:
+        parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--json", action="store_true", help="print JSON")
+
+
+def _add_policy(parser: argparse.ArgumentParser) -> None:
+    """``--policy``: one shipped agent, policy file or seed group."""
+    parser.add_argument(
+        "--policy",
+        default="rp",
+        help=f"shipped agent ({SHIPPED_AGENTS}), a policy file or a seed group; NAME@SEED picks a "
+        "group's seed (default: its first, rp is rp@150)",
+    )
+
+
+def _add_run(group) -> None:
+    """``krl agent run``."""
     p = group.add_parser("run", help="walk the agent to waypoints or at a fixed command")
     add_common_run_arguments(p)
-    add_policy(p)
+    _add_policy(p)
     p.set_defaults(func=run_run)
 
+
+def _add_info(group) -> None:
+    """``krl agent info``."""
     p = group.add_parser("info", help="a policy file's metadata and observation layout")
-    add_policy(p)
-    p.add_argument("--json", action="store_true", help="print JSON")
+    _add_policy(p)
+    _add_output(p)
     p.set_defaults(func=run_info)
 
+
+def _add_curves(group) -> None:
+    """``krl agent curves``."""
     p = group.add_parser(
         "curves", help="training curves (reward, targets reached, falls vs env steps) as PNG"
     )
@@ -409,9 +442,12 @@ def register(subparsers) -> None:
         "their mean and spread (seed-groups.png, Fig. 4.23); repeat for each agent",
     )
     p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--json", action="store_true", help="print JSON")
+    _add_output(p)
     p.set_defaults(func=run_curves)
 
+
+def _add_stairs(group) -> None:
+    """``krl agent stairs``."""
     p = group.add_parser(
         "stairs",
         help="why agents fall on a stairs course: their paths, falls, swing past the side, command "
@@ -427,8 +463,13 @@ def register(subparsers) -> None:
         "--course", default="stairs", help="a course on stairs: shipped name or file (default stairs)"
     )
     p.add_argument("--out", required=True, help="output folder (stairs-diagnosis.png, .json, .csv)")
-    p.add_argument("--json", action="store_true", help="print JSON")
+    _add_output(p)
     p.set_defaults(func=run_stairs)
+
+
+def _add_push(group) -> None:
+    """``krl agent push`` (the push's defaults: :class:`krl.analysis.push.PushProbe`)."""
+    from krl.analysis.push import PROBE_DIRECTIONS, PushProbe
 
     p = group.add_parser(
         "push",
@@ -440,17 +481,26 @@ def register(subparsers) -> None:
         help="as krl evaluate's (a seed group drives its first seed, or NAME@SEED); repeat; "
         f"default {', '.join(PUSH_CONTROLLERS)}",
     )
-    p.add_argument("--magnitude", type=float, default=600.0, help="push force [N] (default 600)")
-    p.add_argument(
-        "--direction",
-        default="left",
-        choices=("left", "right", "forward", "backward"),
-        help="relative to the walk (default left)",
+    add_field_option(p, "--magnitude", PushProbe, type=float, help="push force [N]")
+    add_field_option(
+        p, "--direction", PushProbe, choices=tuple(PROBE_DIRECTIONS), help="relative to the walk"
     )
-    p.add_argument("--at", type=float, help="the push's start [s] (default 2.55: mid-swing)")
+    add_field_option(
+        p,
+        "--at",
+        PushProbe,
+        "start_time",
+        type=float,
+        help="the push's start [s] (default {default}: mid-swing)",
+    )
     p.add_argument("--out", required=True, help="output folder (push-trace.png, .json, .csv, .npz)")
-    p.add_argument("--json", action="store_true", help="print JSON")
+    _add_output(p)
     p.set_defaults(func=run_push)
+
+
+def _add_heldout(group) -> None:
+    """``krl agent heldout``."""
+    from krl.analysis.agent.heldout import HELDOUT_BATCH, MAX_EPISODES
 
     p = group.add_parser(
         "heldout",
@@ -467,8 +517,18 @@ def register(subparsers) -> None:
         "--episodes",
         type=int,
         default=32,
-        help="episodes per policy file (default 32, at most 1024; walked 32 at a time)",
+        help=f"episodes per policy file (default %(default)s, at most {MAX_EPISODES}; walked "
+        f"{HELDOUT_BATCH} at a time)",
     )
+    _add_heldout_choice(p)
+    p.add_argument("--workers", type=int, help="environment processes (default: one per usable core)")
+    p.add_argument("--out", required=True, help="output folder: one record per policy file, heldout.md/.csv")
+    _add_output(p, quiet=True)
+    p.set_defaults(func=run_heldout)
+
+
+def _add_heldout_choice(p: argparse.ArgumentParser) -> None:
+    """``krl agent heldout``'s options of the choice: --choose, --seed-group, --env, --baseline(-env)."""
     p.add_argument(
         "--choose",
         help="LABEL,LABEL,...: choose one of these by held-out success, ties within one episode by targets; "
@@ -494,11 +554,11 @@ def register(subparsers) -> None:
         help="with --baseline: an agent config file on whose env's episodes the choice must also be no worse "
         "than the baseline by more than one episode (records under OUT/baseline-env)",
     )
-    p.add_argument("--workers", type=int, help="environment processes (default: one per usable core)")
-    p.add_argument("--out", required=True, help="output folder: one record per policy file, heldout.md/.csv")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--json", action="store_true", help="print JSON")
-    p.set_defaults(func=run_heldout)
+
+
+def _add_rhythm(group) -> None:
+    """``krl agent rhythm`` (defaults: :func:`krl.analysis.agent.rhythm.clock_rate_walks`)."""
+    from krl.analysis.agent.rhythm import clock_rate_walks
 
     p = group.add_parser(
         "rhythm",
@@ -507,8 +567,12 @@ def register(subparsers) -> None:
     p.add_argument(
         "--rates", default="0.5,0.75,1,1.25,1.5,1.75,2", help="clock rates, multiples of the kernel's own"
     )
-    p.add_argument("--terrain", action="append", help="terrain (repeat; default flat and heightfield_mild)")
-    p.add_argument("--kernel", default="base", help="shipped kernel or kernel file (default base)")
-    p.add_argument("--seconds", type=float, default=8.0, help="walk length [s] (default 8)")
-    p.add_argument("--json", action="store_true", help="print JSON")
+    p.add_argument(
+        "--terrain",
+        action="append",
+        help=f"terrain (repeat; default {' and '.join(default_of(clock_rate_walks, 'terrains'))})",
+    )
+    add_field_option(p, "--kernel", clock_rate_walks, help="shipped kernel or kernel file")
+    add_field_option(p, "--seconds", clock_rate_walks, type=float, help="walk length [s]")
+    _add_output(p)
     p.set_defaults(func=run_rhythm)

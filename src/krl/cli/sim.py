@@ -115,12 +115,18 @@ def register(subparsers) -> None:
     """Add ``krl terrains``, ``render``, ``view`` and ``bench`` to the main parser's subcommands."""
     p = subparsers.add_parser("terrains", help="list the terrains and their default parameters")
     p.set_defaults(func=cmd_terrains)
+    _add_render(subparsers)
+    _add_view(subparsers)
+    _add_bench(subparsers)
 
+
+def _add_render(subparsers) -> None:
+    """``krl render``."""
     p = subparsers.add_parser("render", help="render the robot standing on a terrain to a PNG (headless)")
     add_terrain_arguments(p)
     p.add_argument("--out", required=True, help="output PNG path")
-    p.add_argument("--width", type=int, default=960)
-    p.add_argument("--height", type=int, default=640)
+    p.add_argument("--width", type=int, default=960, help="image width [px]")
+    p.add_argument("--height", type=int, default=640, help="image height [px]")
     p.add_argument("--settle", type=float, default=0.5, help="seconds of standing before the frame [s]")
     p.add_argument(
         "--course", help="render a course (name or file) from above, waypoints as red posts, robot at start 0"
@@ -130,6 +136,9 @@ def register(subparsers) -> None:
     p.add_argument("--elevation", type=float, help="camera elevation [deg] (default -25; -35 for a course)")
     p.set_defaults(func=cmd_render)
 
+
+def _add_view(subparsers) -> None:
+    """``krl view``."""
     p = subparsers.add_parser(
         "view", help="a controller walking live in MuJoCo's viewer, keyboard-steered (needs a display)"
     )
@@ -141,6 +150,9 @@ def register(subparsers) -> None:
     add_terrain_arguments(p)
     p.set_defaults(func=cmd_view)
 
+
+def _add_bench(subparsers) -> None:
+    """``krl bench`` (defaults: the benchmark functions' own)."""
     from krl.agent.config import DEFAULT_NUM_ENVS
     from krl.bench.agent import bench_agent
     from krl.bench.mpc import bench_mpc
