@@ -1,4 +1,8 @@
-"""A small agent configuration for the agent's tests."""
+"""Fixtures shared by tests of several packages: a small agent configuration (tests/agent and
+tests/analysis/agent).
+
+pytest's default (prepend) import mode puts this folder on ``sys.path`` when it imports this file, so the
+shared fakes beside it (``agent_fakes``, ``eval_fakes``) import by name from a test in any folder."""
 
 from __future__ import annotations
 

@@ -3,13 +3,10 @@
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import onnxruntime
-
-sys.path.insert(0, str(Path(__file__).parent / "agent"))
 from agent_fakes import make_policy
 
 from krl.agent.config import AgentConfig

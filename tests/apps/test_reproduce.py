@@ -53,7 +53,7 @@ def test_dry_run_prints_the_plan(tmp_path, capsys):
 @pytest.mark.parametrize("quick", [False, True])
 def test_the_documented_tables_are_the_plan(quick):
     """docs/reproduce.md's table for the mode holds each step, in order, and the total of the defaults'."""
-    text = (Path(__file__).resolve().parents[1] / "docs" / "reproduce.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "docs" / "reproduce.md").read_text()
     table = text.split("## Quick")[1 if quick else 0]
     rows = [line for line in table.splitlines() if line.startswith("| ") and line[2].isdigit()]
     steps = plan(Path("runs/reproduce"), Path("docs"), quick)

@@ -4,12 +4,9 @@ import hashlib
 import json
 import re
 import shutil
-import sys
 from pathlib import Path
 
 import pytest
-
-sys.path.insert(0, str(Path(__file__).parents[1] / "agent"))
 from agent_fakes import make_policy
 
 from krl.agent.config import AgentConfig

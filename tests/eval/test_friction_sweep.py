@@ -1,12 +1,8 @@
 """The friction sweep: course files set the ground's μ, the sweep's runs, summaries, CLI and report."""
 
 import json
-import sys
-from pathlib import Path
 
 import pytest
-
-sys.path.insert(0, str(Path(__file__).parents[1] / "agent"))
 from agent_fakes import make_policy
 
 from krl.agent.config import AgentConfig

@@ -360,7 +360,7 @@ def test_the_ground_study_is_agent_gaits_recipe_on_other_ground():
     configs = {
         v.name: runner.trial_config(study, settings, v.overrides, study.budget) for v in study.variants
     }
-    chosen = Path(__file__).parents[2] / "docs/results/agent/gait-heldout/chosen-config.json"
+    chosen = Path(__file__).parents[3] / "docs/results/agent/gait-heldout/chosen-config.json"
     agent_gait = AgentConfig.load(chosen)  # the held-out choice's recipe, which agent-gait's seeds train
     agent_gait = replace(agent_gait, workers=None)  # a trial takes the machine's (its run records 2)
     on_pyramids = replace(agent_gait.env, heightfield_probability=0.5, pyramids_probability=0.25)
