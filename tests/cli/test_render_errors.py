@@ -37,8 +37,19 @@ UNLOADABLE: dict[str, dict[str, str]] = {
 }
 """``MUJOCO_GL`` backends MuJoCo cannot load on import (libOSMesa hidden by :data:`WITHOUT_OSMESA`)."""
 
-WITHOUT_OSMESA = "import ctypes.util; ctypes.util.find_library = lambda name: None\n"
-"""A prelude in which no GL library is found (PyOpenGL looks libOSMesa up with ``find_library``)."""
+WITHOUT_OSMESA = (
+    "import ctypes, ctypes.util\n"
+    "ctypes.util.find_library = lambda name: None\n"
+    "class _WithoutOSMesa(ctypes.CDLL):\n"
+    "    def __init__(self, name, *args, **kwargs):\n"
+    "        if name is not None and 'osmesa' in str(name).lower():\n"
+    "            raise OSError(f'{name}: cannot open shared object file: No such file or directory')\n"
+    "        super().__init__(name, *args, **kwargs)\n"
+    "ctypes.CDLL = _WithoutOSMesa\n"
+    "ctypes.cdll = ctypes.LibraryLoader(_WithoutOSMesa)\n"
+)
+"""A prelude in which no GL library is found, whether or not the machine has libOSMesa (PyOpenGL looks it
+up with ``find_library``, then opens it by name through ``ctypes.cdll``)."""
 
 
 @pytest.mark.parametrize("backend", UNLOADABLE)
