@@ -3,8 +3,9 @@
 The A1 is symmetric about its sagittal plane, the base frame's x-z plane, but for its trunk's inertial
 frame (``tests/analysis/agent/test_mirror_physics.py`` measures how much, docs/agent-robust.md).
 Reflecting a state through that plane swaps the legs FR <-> FL and RR <-> RL and negates every lateral (y)
-component of a polar vector and the x and z components of an axial one (angular velocity, roll, yaw). Every mirror here is a *signed permutation* ``mirrored[i] = sign[i] * x[index[i]]``,
-so it is linear, exact in floating point, and its own inverse.
+component of a polar vector and the x and z components of an axial one (angular velocity, roll, yaw).
+Every mirror here is a *signed permutation* ``mirrored[i] = sign[i] * x[index[i]]``, so it is linear,
+exact in floating point, and its own inverse.
 
 ============================= ==================================================================
 kind                          mirror
