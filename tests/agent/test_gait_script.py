@@ -5,13 +5,13 @@ command."""
 
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
 import time
 from pathlib import Path
 
 import pytest
+from script_stand_in import stand_in_environment
 
 SCRIPT = Path(__file__).resolve().parents[2] / "examples" / "gait" / "agent-gait.sh"
 GROUND_SCRIPT = SCRIPT.with_name("agent-gait-ground.sh")
@@ -32,19 +32,9 @@ fi
 
 @pytest.fixture
 def workspace(tmp_path):
-    bin_dir = tmp_path / "bin"
-    bin_dir.mkdir()
-    (bin_dir / "krl").write_text(STAND_IN)
-    (bin_dir / "krl").chmod(0o755)
-    env = os.environ | {
-        "PATH": f"{bin_dir}:{os.environ['PATH']}",
-        "LOG": str(tmp_path / "krl.log"),
-        "SLOW": "",
-        "STANDS": "true",
-        "RUNS": "runs",
-        "EVAL": "evaluations/gait",
-        "REPORT": "report",
-    }
+    env = stand_in_environment(
+        tmp_path, STAND_IN, SLOW="", STANDS="true", RUNS="runs", EVAL="evaluations/gait", REPORT="report"
+    )
     return tmp_path, env
 
 

@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import itertools
 import json
-import os
 import subprocess
 from pathlib import Path
 
 import pytest
+from script_stand_in import stand_in_environment
 
 SCRIPT = Path(__file__).resolve().parents[2] / "examples" / "robust" / "agent-robust.sh"
 
@@ -29,19 +29,9 @@ fi
 
 
 def _run(tmp_path: Path, stands: str) -> list[str]:
-    bin_dir = tmp_path / "bin"
-    bin_dir.mkdir()
-    (bin_dir / "krl").write_text(STAND_IN)
-    (bin_dir / "krl").chmod(0o755)
-    env = os.environ | {
-        "PATH": f"{bin_dir}:{os.environ['PATH']}",
-        "LOG": str(tmp_path / "krl.log"),
-        "PILOT_CHOICE": "loss",
-        "STANDS": stands,
-        "RUNS": "runs",
-        "EVAL": "evals",
-        "REPORT": "report",
-    }
+    env = stand_in_environment(
+        tmp_path, STAND_IN, PILOT_CHOICE="loss", STANDS=stands, RUNS="runs", EVAL="evals", REPORT="report"
+    )
     subprocess.run(["bash", str(SCRIPT)], cwd=tmp_path, env=env, check=True, capture_output=True, timeout=60)
     return (tmp_path / "krl.log").read_text().splitlines()
 

@@ -16,27 +16,8 @@ from krl.eval.controllers import ControllerSpecError, distinct_controllers, pars
 from krl.kernel.registry import shipped_model_path
 from krl.util.hashing import file_sha256
 
-TINY = """
-format = 1
-name = "tiny"
-time_limit = 0.1
-d_min = 0.5
-waypoints = [[3.0, 0.0]]
-starts = [[0.0, 0.0, 0.0]]
-
-[terrain]
-name = "flat"
-"""
-
 SHIPPED_GROUP = shipped_policy_dir() / "agent-rp"
 SHIPPED_RP = SHIPPED_GROUP / "seed150.npz"
-
-
-@pytest.fixture
-def tiny(tmp_path):
-    path = tmp_path / "tiny.toml"
-    path.write_text(TINY)
-    return path
 
 
 def evaluate_argv(out, *options):

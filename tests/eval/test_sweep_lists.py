@@ -6,25 +6,6 @@ from krl.cli import main
 from krl.eval.episodes import FrictionSweep
 from krl.sim.terrains import MAX_GROUND_FRICTION
 
-TINY = """
-format = 1
-name = "tiny"
-time_limit = 0.1
-d_min = 0.5
-waypoints = [[3.0, 0.0]]
-starts = [[0.0, 0.0, 0.0]]
-
-[terrain]
-name = "flat"
-"""
-
-
-@pytest.fixture
-def tiny(tmp_path):
-    path = tmp_path / "tiny.toml"
-    path.write_text(TINY)
-    return path
-
 
 def test_a_friction_above_the_grounds_range_is_refused_by_the_sweep():
     assert MAX_GROUND_FRICTION == 5.0  # the message below names it

@@ -69,17 +69,18 @@ def _band_name(band: tuple[float, float] | None) -> str:
     return "all" if band is None else f"{band[0]:g}-{band[1]:g}"
 
 
+def _in_band(records: list[dict[str, Any]], band: tuple[float, float] | None) -> list[dict[str, Any]]:
+    """The push records whose magnitude [N] lies in ``band`` (low, high), all of them for None."""
+    return [record for record in records if band is None or band[0] <= record["magnitude"] <= band[1]]
+
+
 def push_direction_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
     """One row per (force band of :data:`PUSH_FORCE_BANDS`, controller, push direction) of ours (the
     thesis has none), ``forces`` naming the band (:func:`_band_name`)."""
     rows = []
     for band in PUSH_FORCE_BANDS:
         for label, groups in found.items():
-            records = [
-                record
-                for record in groups.get(PUSH_DIR, [])
-                if band is None or band[0] <= record["magnitude"] <= band[1]
-            ]
+            records = _in_band(groups.get(PUSH_DIR, []), band)
             rows += [
                 {"controller": label, "forces": _band_name(band), **row}
                 for row in summarise_push_directions(records)
@@ -94,11 +95,7 @@ def push_left_right_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> l
     rows = []
     for band in PUSH_FORCE_BANDS:
         for label, groups in found.items():
-            records = [
-                record
-                for record in groups.get(PUSH_DIR, [])
-                if band is None or band[0] <= record["magnitude"] <= band[1]
-            ]
+            records = _in_band(groups.get(PUSH_DIR, []), band)
             row = summarise_push_left_right(records)
             if row is not None:
                 rows.append({"controller": label, "forces": _band_name(band), **row})
