@@ -14,7 +14,9 @@
 #   nohup examples/robust/agent-robust.sh > runs/agent-robust.log 2>&1 &
 #
 # RUNS (default runs) holds the runs, EVAL (default evaluations/robust) the evaluation records, REPORT
-# (default docs/results/robust) the tables and plots.
+# (default docs/results/robust) the tables and plots. COMMITTED (default training/robust) holds the run
+# folders a session committed unfinished (config, logs, last checkpoint, policy); one not yet in
+# RUNS/robust is copied there first, and goes on where it stopped.
 set -euo pipefail
 HERE=$(dirname "$0")
 ROOT=$(cd "$HERE/../.." && pwd)
@@ -27,8 +29,17 @@ PILOT_STEPS=4000000
 BASELINE="$ROOT/src/krl/agent/policies/agent-gait-ground/seed[12]*.npz"  # agent-gait-ground's 150, 215
 GROUND_CONFIG=$ROOT/training/agent-gait-ground-seed345/config.json
 
+COMMITTED=${COMMITTED:-$ROOT/training/robust}
+
 # shellcheck source=../gait/together.sh
 source "$HERE/../gait/together.sh"
+
+if [ -d "$COMMITTED" ]; then
+  for folder in "$COMMITTED"/*/; do
+    name=$(basename "$folder")
+    if [ ! -e "$R/$name" ]; then mkdir -p "$R" && cp -r "$folder" "$R/$name"; fi
+  done
+fi
 
 # 1. the pilot, and S
 if [ ! -e "$R/heldout-pilot/choice.json" ]; then

@@ -30,10 +30,29 @@ fi
 
 def _run(tmp_path: Path, stands: str) -> list[str]:
     env = stand_in_environment(
-        tmp_path, STAND_IN, PILOT_CHOICE="loss", STANDS=stands, RUNS="runs", EVAL="evals", REPORT="report"
+        tmp_path,
+        STAND_IN,
+        PILOT_CHOICE="loss",
+        STANDS=stands,
+        RUNS="runs",
+        EVAL="evals",
+        REPORT="report",
+        COMMITTED=str(tmp_path / "committed"),
     )
     subprocess.run(["bash", str(SCRIPT)], cwd=tmp_path, env=env, check=True, capture_output=True, timeout=60)
     return (tmp_path / "krl.log").read_text().splitlines()
+
+
+def test_committed_run_folders_go_on_from_where_they_stopped(tmp_path):
+    committed = tmp_path / "committed" / "sym-seed215"
+    committed.mkdir(parents=True)
+    (committed / "config.json").write_text("{}")
+    (tmp_path / "runs" / "robust" / "sym-seed150").mkdir(parents=True)  # newer here: kept
+    (tmp_path / "committed" / "sym-seed150").mkdir()
+    lines = _run(tmp_path, "false")
+    assert (tmp_path / "runs/robust/sym-seed215/config.json").read_text() == "{}"
+    assert not list((tmp_path / "runs/robust/sym-seed150").iterdir())
+    assert any("--out runs/robust/sym-seed215 " in line for line in lines)
 
 
 def _index(lines: list[str], *parts: str) -> int:
