@@ -194,7 +194,8 @@ def test_same_seed_same_policy(tmp_path, small_config):
 
 def test_a_sigterm_a_finaliser_swallowed_still_stops_training(tmp_path, small_config, monkeypatch):
     """A study job trained on after its SIGTERM: the handler's exception was raised inside a finaliser
-    (SQLAlchemy's) during a garbage collection, where Python swallows it; the next env step stops."""
+    (SQLAlchemy's) during a garbage collection, where Python swallows it; the next env step stops, and
+    nothing is reported of the swallowed exception (no "Exception ignored in ..." traceback)."""
     import os
     import signal
     import sys
@@ -211,5 +212,5 @@ def test_a_sigterm_a_finaliser_swallowed_still_stops_training(tmp_path, small_co
     with pytest.raises(Interrupted), signals_raise():
         SignalledWhileCollected()  # collected at once: the stop is lost before training starts
         train(tmp_path / "run", config, seed=3, progress=False, log=lambda _: None)
-    assert swallowed == [Interrupted]
+    assert swallowed == []
     assert int((tmp_path / "run" / "checkpoints" / "latest").read_text()) <= config.num_envs  # its first step
