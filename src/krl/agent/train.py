@@ -205,10 +205,11 @@ def train(
     if update_threads < 1:
         raise TrainingError(f"update_threads must be at least 1, got {update_threads}")
     device = training_device(device)
+    symmetric = None
     if config is not None and config.ppo.symmetry != "none":  # refused before the run folder is written
         from krl.kernel.registry import resolve_model
 
-        mirrors(config, str(resolve_model(config.residual.kernel)))
+        symmetric = mirrors(config, str(resolve_model(config.residual.kernel)))
     config, run = open_run(out, config, seed, init_from, workers, num_envs, device)
     total = config.total_steps if total_steps is None else total_steps
     latest = latest_checkpoint(out)
@@ -218,7 +219,8 @@ def train(
         return _summary(out, done, wall_before)
     start = starting_point(run, latest)  # read whole before anything is written
     kernel_path = run_kernel(out, config, run)
-    symmetric = None if config.ppo.symmetry == "none" else mirrors(config, kernel_path)
+    if symmetric is None and config.ppo.symmetry != "none":  # a resumption with its stored config
+        symmetric = mirrors(config, kernel_path)
     os.environ["OPENBLAS_NUM_THREADS"] = "1"  # inherited by the spawned workers
     torch.set_num_threads(1)  # small networks: extra intra-op threads only spin against the env workers
     env_seed = _env_seed(run["seed"], config, None if latest is None else done)

@@ -17,23 +17,36 @@ VIDEO_FPS: int = 30
 """Frames per second of simulated time in krl's videos."""
 
 
+class FrameClock:
+    """When a frame is due: every ``1 / fps`` s of simulated time, the first at 0."""
+
+    def __init__(self, fps: int) -> None:
+        if fps <= 0:
+            raise ValueError(f"fps must be positive, got {fps}")
+        self._period = 1.0 / fps
+        self._next = 0.0
+
+    def due(self, time: float) -> bool:
+        """Whether a frame is due at simulated ``time`` [s]; if so, the next one is a period later."""
+        if time + 1e-9 < self._next:
+            return False
+        self._next += self._period
+        return True
+
+
 class FrameLog:
     """Call :meth:`capture` after every control step; keeps the simulator's ``qpos`` at ``fps`` of simulated
     time, the frames :func:`write_video` renders later."""
 
     def __init__(self, sim: A1Sim, fps: int = VIDEO_FPS) -> None:
-        if fps <= 0:
-            raise ValueError(f"fps must be positive, got {fps}")
-        self.sim, self.fps = sim, fps
+        self.sim, self._clock = sim, FrameClock(fps)
         self.qpos: list[np.ndarray] = []
         """One ``MjData.qpos`` per frame. Shape of each: (model.nq,)."""
-        self._next = 0.0
 
     def capture(self) -> None:
         """Keep a frame if one is due at the simulator's current time."""
-        if self.sim.time + 1e-9 >= self._next:
+        if self._clock.due(self.sim.time):
             self.qpos.append(self.sim.data.qpos.copy())
-            self._next += 1.0 / self.fps
 
 
 def write_video(
@@ -87,24 +100,20 @@ class VideoRecorder:
     ) -> None:
         import imageio.v2 as imageio
 
-        if fps <= 0:
-            raise ValueError(f"fps must be positive, got {fps}")
+        self._clock = FrameClock(fps)  # refuses fps <= 0 before a file is made
         self.sim = sim
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._temporary = self.path.with_name(f".{self.path.stem}.tmp{self.path.suffix}")
         self._renderer = FrameRenderer(sim.model, width, height, view)
         self._writer = imageio.get_writer(self._temporary, fps=fps, macro_block_size=1)
-        self._period = 1.0 / fps
-        self._next = 0.0
         self.frames = 0
 
     def capture(self) -> None:
         """Append a frame if one is due at the simulator's current time."""
-        if self.sim.time + 1e-9 >= self._next:
+        if self._clock.due(self.sim.time):
             self._writer.append_data(self._renderer.render(self.sim.data))
             self.frames += 1
-            self._next += self._period
 
     def close(self) -> Path:
         """Finish the file and move it into place. Returns its path."""
