@@ -214,137 +214,28 @@ def run_push(args: argparse.Namespace) -> int:
     return 0
 
 
-def _heldout_env(path: str | None, option: str):
-    """The env section of the agent config file ``path`` (None for None); a CliError names ``option``."""
-    if path is None:
-        return None
-    from krl.agent.config import AgentConfig, AgentConfigError
-
-    try:
-        return AgentConfig.load(path).env
-    except AgentConfigError as error:
-        raise CliError(f"{option} {path}: {error}") from None
-
-
-def _walk_heldout(groups: dict, out: Path, args: argparse.Namespace, workers: int, env, bar) -> dict:
-    """Every policy file of ``groups`` ({label: [(seed, path)]}) on its held-out episodes (in ``env``, None:
-    its own), records read or written under ``out``; ``{label: [(seed, record)]}``."""
-    from krl.agent.process_vec_env import WorkerError
-    from krl.analysis.agent.heldout import policy_record
-
-    records: dict[str, list] = {}
-    task = bar.add_task(
-        f"held-out episodes ({out.name})", total=args.episodes * sum(map(len, groups.values()))
-    )
-    for label, files in groups.items():
-        records[label] = []
-        for seed, path in files:
-            record_path = out / label / ("policy.json" if seed is None else f"seed{seed}.json")
-            try:
-                record = policy_record(
-                    path, record_path, args.episodes, workers, lambda: bar.advance(task), env
-                )
-            except WorkerError as error:
-                raise CliError(
-                    f"{error}; the same command goes on from the policies already walked"
-                ) from None
-            records[label].append((seed, record))
-    return records
-
-
-def _check_heldout_args(args: argparse.Namespace, groups: dict, candidates: list[str]) -> None:
-    """One-line errors for options that do not fit together, before any episode is walked or anything
-    written (``groups``: {label: [(seed, path)]})."""
-    from krl.analysis.agent.heldout import check_candidates
-    from krl.analysis.agent.seed_group import check_seeded
-
-    labels = list(groups)
-    if args.seed_group and not candidates:
-        raise CliError("--seed-group needs --choose: it receives the chosen label's policies")
-    if args.baseline_env and not args.baseline:
-        raise CliError("--baseline-env needs --baseline: the label the choice is held against there")
-    if args.baseline and not candidates:
-        raise CliError("--baseline needs --choose: it is the label the choice must beat")
-    if args.baseline and args.baseline not in labels:
-        raise CliError(f"--baseline {args.baseline!r} is no --policy label (labels: {', '.join(labels)})")
-    if args.baseline in candidates:
-        raise CliError(f"--baseline {args.baseline!r} is also a --choose candidate")
-    try:
-        check_candidates(labels, candidates)
-        for label in candidates if args.seed_group else ():
-            check_seeded(label, groups[label], Path(args.seed_group))
-    except ValueError as error:
-        raise CliError(str(error)) from None
-
-
-def _seed_group_copies(args: argparse.Namespace, groups: dict, chosen: str | None) -> list | None:
-    """The copies that put the ``chosen`` label's policies (of ``groups``) into ``--seed-group``, checked
-    (None: no seed group, or no choice that stands)."""
-    from krl.analysis.agent.seed_group import group_copies
-
-    if not args.seed_group or chosen is None:
-        return None
-    try:
-        return group_copies(chosen, groups[chosen], Path(args.seed_group))
-    except ValueError as error:
-        raise CliError(str(error)) from None
-
-
 def run_heldout(args: argparse.Namespace) -> int:
     from krl.agent.policy import policy_artifacts
-    from krl.analysis.agent.heldout import (
-        MAX_EPISODES,
-        against_baseline,
-        choose,
-        group_rows,
-        write_choice,
-        write_verdict,
-    )
-    from krl.analysis.agent.heldout_tables import write_tables
-    from krl.analysis.agent.seed_group import copy_into_group
-    from krl.util.parallel import usable_cores
+    from krl.analysis.agent.heldout_choice import HeldoutError, HeldoutRequest, run_heldout
     from krl.util.progress import progress_bar
 
-    if args.episodes < 1:
-        raise CliError(f"--episodes must be at least 1, got {args.episodes}")
-    if args.episodes > MAX_EPISODES:  # each batch of episodes is built at once: see HELDOUT_BATCH
-        raise CliError(f"--episodes must be at most {MAX_EPISODES}, got {args.episodes}")
-    workers = usable_cores() if args.workers is None else args.workers
-    if workers < 1:
-        raise CliError(f"--workers must be at least 1, got {workers}")
-    groups = labelled_policies(args.policy, policy_artifacts)
-    candidates = [label.strip() for label in args.choose.split(",")] if args.choose else []
-    _check_heldout_args(args, groups, candidates)
-    env, baseline_env = _heldout_env(args.env, "--env"), _heldout_env(args.baseline_env, "--baseline-env")
-    out = Path(args.out)
-    with progress_bar(not args.quiet, unit="episodes") as bar:
-        records = _walk_heldout(groups, out, args, workers, env, bar)
-        rows = group_rows(records)
-        choice = choose(rows, candidates) if candidates else None
-        if choice and args.baseline:
-            checks = {"these episodes": against_baseline(rows, choice["chosen"], args.baseline, True)}
-            if baseline_env is not None:
-                pair = {label: groups[label] for label in (choice["chosen"], args.baseline)}
-                again = _walk_heldout(pair, out / "baseline-env", args, workers, baseline_env, bar)
-                write_tables(group_rows(again), again, out / "baseline-env", None, args.baseline_env)
-                checks[f"`{args.baseline_env}`'s episodes"] = against_baseline(
-                    group_rows(again), choice["chosen"], args.baseline, False
-                )
-            stands = all(check["holds"] for check in checks.values())
-            choice["baseline"] = {"label": args.baseline, "checks": checks, "stands": stands}
-    chosen = choice["chosen"] if choice and choice.get("baseline", {}).get("stands", True) else None
-    copies = _seed_group_copies(args, groups, chosen)  # checked before anything is written
-    written = write_tables(rows, records, out, choice, args.env)
-    if chosen:
-        try:
-            written |= write_choice(choice, groups[chosen], out)
-        except ValueError as error:
-            raise CliError(str(error)) from None
-        if copies is not None:
-            written["seed_group"] = copy_into_group(copies)
-    elif choice:  # the choice does not stand against the baseline: recorded, nothing to train from
-        written["choice"] = write_verdict(choice, out)
-    emit({"rows": rows, "written": written} | ({"choice": choice} if choice else {}), args.json)
+    request = HeldoutRequest(
+        groups=labelled_policies(args.policy, policy_artifacts),
+        out=Path(args.out),
+        episodes=args.episodes,
+        workers=args.workers,
+        candidates=tuple(label.strip() for label in args.choose.split(",")) if args.choose else (),
+        baseline=args.baseline,
+        env=args.env,
+        baseline_env=args.baseline_env,
+        seed_group=Path(args.seed_group) if args.seed_group else None,
+    )
+    try:
+        with progress_bar(not args.quiet, unit="episodes") as bar:
+            result = run_heldout(request, bar)
+    except HeldoutError as error:
+        raise CliError(str(error)) from None
+    emit(result, args.json)
     return 0
 
 

@@ -220,58 +220,45 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true")
 
 
+def _stance_data(items: list[str] | None) -> dict[float, str]:
+    """``--data-stance TAU=DIR`` items as {stance duration [s]: dataset}."""
+    stance_data = {}
+    for item in items or ():
+        tau, sep, path = item.partition("=")
+        try:
+            stance_data[float(tau)] = path
+        except ValueError:
+            sep = ""
+        if not sep or not path:
+            raise ValueError(f"--data-stance expects TAU=DIR, got {item!r}")
+    return stance_data
+
+
 def run_study(args: argparse.Namespace) -> int:
     import shlex
 
     from krl.kernel import studies
     from krl.kernel.train import TrainConfig
 
-    seeds = parse_ints(args.seeds, "--seeds")
-    base = TrainConfig(epochs=args.epochs, threads=args.threads)
-    if args.study == "variants":
-        data = {
-            k: v for k, v in (("base", args.data_base), ("ext", args.data_ext), ("dyn2", args.data_dyn2)) if v
-        }
-        if not data:
-            raise ValueError("variants needs at least one of --data-base, --data-ext, --data-dyn2")
-        variants = [v for v in args.variants.split(",") if v]
-        unknown = sorted(set(variants) - set(studies.VARIANT_DATA))
-        if unknown or not variants:
-            raise ValueError(
-                f"--variants: unknown variant(s) {', '.join(unknown) or '(none given)'}; "
-                f"known: {', '.join(studies.VARIANT_DATA)}"
-            )
-        runs, key = studies.plan_variants(data, seeds, base, variants), "variant"
-    elif args.study == "data-size":
-        if not args.data:
-            raise ValueError("data-size needs --data (a base dataset)")
-        sizes = parse_ints(args.sizes, "--sizes")
-        runs, key = studies.plan_data_size(args.data, sizes, seeds, base), "targets"
-    else:
-        stance_data = {}
-        for item in args.data_stance or ():
-            tau, sep, path = item.partition("=")
-            try:
-                stance_data[float(tau)] = path
-            except ValueError:
-                sep = ""
-            if not sep or not path:
-                raise ValueError(f"--data-stance expects TAU=DIR, got {item!r}")
-        if not stance_data:
-            raise ValueError("stance needs --data-stance TAU=DIR (one per stance duration)")
-        runs, key = studies.plan_stance(stance_data, seeds, base), "stance_duration"
-    if args.finished_only:
-        records, missing = studies.finished(runs, Path(args.runs) / args.study)
-        if not records:
-            raise ValueError(f"no run of this study has finished in {Path(args.runs) / args.study}")
-    else:
-        records, missing = studies.execute(runs, Path(args.runs) / args.study, progress=not args.quiet), []
-    rows = studies.thesis_columns(args.study, studies.summarise(records, key))
-    if args.study != "variants" and args.walk_targets > 0:
-        studies.add_walking(rows, records, key, args.walk_targets)
-    command = "krl " + shlex.join(args.argv)
-    path = studies.write_table(args.study, rows, records, Path(args.out), command, missing)
-    emit({"study": args.study, "table": str(path), "rows": rows, "unfinished": missing}, args.json)
+    kinds = {"base": args.data_base, "ext": args.data_ext, "dyn2": args.data_dyn2}
+    if args.study == "data-size":
+        kinds = {"base": args.data}
+    request = studies.StudyRequest(
+        study=args.study,
+        seeds=tuple(parse_ints(args.seeds, "--seeds")),
+        train=TrainConfig(epochs=args.epochs, threads=args.threads),
+        runs=Path(args.runs),
+        out=Path(args.out),
+        command="krl " + shlex.join(args.argv),
+        datasets={kind: path for kind, path in kinds.items() if path},
+        variants=tuple(v for v in args.variants.split(",") if v),
+        sizes=tuple(parse_ints(args.sizes, "--sizes")) if args.study == "data-size" else (),
+        stance_data=_stance_data(args.data_stance),
+        finished_only=args.finished_only,
+        walk_targets=args.walk_targets,
+        progress=not args.quiet,
+    )
+    emit(studies.run_study(request), args.json)
     return 0
 
 

@@ -23,7 +23,7 @@ import io
 import json
 import statistics
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -274,3 +274,87 @@ def thesis_columns(study: str, rows: list[dict[str, Any]]) -> list[dict[str, Any
             mean, walks = THESIS_STANCE.get(row["stance_duration"], (None, None))
             row["thesis_mean"], row["thesis_functional"] = mean, walks
     return rows
+
+
+@dataclass(frozen=True)
+class StudyRequest:
+    """One ``krl kernel study``.
+
+    Attributes:
+        study: one of :data:`STUDIES`.
+        seeds: training seeds; every planned setting trains once per seed.
+        train: the training settings every run starts from (epochs, threads).
+        runs: where the training runs go (``runs/<study>/<run>``, resumable).
+        out: where the tables go (``out/<study>.*``).
+        command: the command line written into the tables.
+        datasets: ``variants``: the dataset per kind (``base``, ``ext``, ``dyn2``; at least one);
+            ``data-size``: ``{"base": path}``.
+        variants: ``variants``: which of :data:`VARIANT_DATA` to train.
+        sizes: ``data-size``: the training target counts.
+        stance_data: ``stance``: a dataset per stance duration [s].
+        finished_only: train nothing; table the finished runs and list the others.
+        walk_targets: ``data-size``, ``stance``: count the kernels that walk to this many waypoints (0: skip).
+        progress: show the training's progress bars.
+    """
+
+    study: str
+    seeds: tuple[int, ...]
+    train: TrainConfig
+    runs: Path
+    out: Path
+    command: str
+    datasets: dict[str, str] = field(default_factory=dict)
+    variants: tuple[str, ...] = tuple(VARIANT_DATA)
+    sizes: tuple[int, ...] = tuple(THESIS_DATA_SIZE)
+    stance_data: dict[float, str] = field(default_factory=dict)
+    finished_only: bool = False
+    walk_targets: int = 5
+    progress: bool = True
+
+
+def plan(request: StudyRequest) -> tuple[list[StudyRun], str]:
+    """The study's runs and the row key that groups them.
+
+    Raises:
+        ValueError: the study lacks a dataset it needs, or names an unknown variant (one line).
+    """
+    if request.study == "variants":
+        if not request.datasets:
+            raise ValueError("variants needs at least one of --data-base, --data-ext, --data-dyn2")
+        unknown = sorted(set(request.variants) - set(VARIANT_DATA))
+        if unknown or not request.variants:
+            raise ValueError(
+                f"--variants: unknown variant(s) {', '.join(unknown) or '(none given)'}; "
+                f"known: {', '.join(VARIANT_DATA)}"
+            )
+        return plan_variants(request.datasets, request.seeds, request.train, request.variants), "variant"
+    if request.study == "data-size":
+        if "base" not in request.datasets:
+            raise ValueError("data-size needs --data (a base dataset)")
+        base = request.datasets["base"]
+        return plan_data_size(base, request.sizes, request.seeds, request.train), "targets"
+    if not request.stance_data:
+        raise ValueError("stance needs --data-stance TAU=DIR (one per stance duration)")
+    return plan_stance(request.stance_data, request.seeds, request.train), "stance_duration"
+
+
+def run_study(request: StudyRequest) -> dict[str, Any]:
+    """Train (or, ``finished_only``, gather) the study's runs and write its tables. Returns ``study``,
+    ``table`` (the Markdown path), ``rows`` and ``unfinished`` (the runs left out).
+
+    Raises:
+        ValueError: from :func:`plan`, or ``finished_only`` and no run has finished.
+    """
+    runs, key = plan(request)
+    runs_dir = request.runs / request.study
+    if request.finished_only:
+        records, missing = finished(runs, runs_dir)
+        if not records:
+            raise ValueError(f"no run of this study has finished in {runs_dir}")
+    else:
+        records, missing = execute(runs, runs_dir, progress=request.progress), []
+    rows = thesis_columns(request.study, summarise(records, key))
+    if request.study != "variants" and request.walk_targets > 0:
+        add_walking(rows, records, key, request.walk_targets)
+    path = write_table(request.study, rows, records, request.out, request.command, missing)
+    return {"study": request.study, "table": str(path), "rows": rows, "unfinished": missing}

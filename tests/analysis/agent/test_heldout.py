@@ -16,7 +16,7 @@ from krl.agent.config import AgentConfig, EnvConfig, ResidualConfig
 from krl.agent.policy import load_policy
 from krl.agent.process_vec_env import ProcessVecEnv
 from krl.agent.train import _env_seed, train
-from krl.analysis.agent import heldout
+from krl.analysis.agent import heldout, heldout_choice
 from krl.analysis.agent.heldout import HELDOUT_SEED, drive_usage, group_rows
 from krl.cli import main
 from krl.kernel.registry import load_model
@@ -287,7 +287,9 @@ def test_a_choice_stands_only_if_better_than_the_baseline_and_no_worse_on_its_gr
     tmp_path, tiny_group, capsys, monkeypatch, on_baseline_env, stands
 ):
     monkeypatch.setattr(
-        heldout, "policy_record", fake_records({"base": (20, 28), "p": (21, 0), "q": (23, on_baseline_env)})
+        heldout_choice,
+        "policy_record",
+        fake_records({"base": (20, 28), "p": (21, 0), "q": (23, on_baseline_env)}),
     )
     own = tmp_path / "own.json"
     own.write_text(json.dumps({"env": {"episode_time": 0.5}}))
