@@ -392,6 +392,7 @@ def _add_push(group) -> None:
 def _add_heldout(group) -> None:
     """``krl agent heldout``."""
     from krl.analysis.agent.heldout import HELDOUT_BATCH, MAX_EPISODES
+    from krl.analysis.agent.heldout_choice import HeldoutRequest
 
     p = group.add_parser(
         "heldout",
@@ -407,7 +408,7 @@ def _add_heldout(group) -> None:
     p.add_argument(
         "--episodes",
         type=int,
-        default=32,
+        default=default_of(HeldoutRequest, "episodes"),
         help=f"episodes per policy file (default %(default)s, at most {MAX_EPISODES}; walked "
         f"{HELDOUT_BATCH} at a time)",
     )

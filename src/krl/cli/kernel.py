@@ -178,7 +178,7 @@ def run_tune(args: argparse.Namespace) -> int:
 
 
 def add_study_arguments(parser: argparse.ArgumentParser) -> None:
-    from krl.kernel.studies import STUDIES, THESIS_DATA_SIZE, VARIANT_DATA
+    from krl.kernel.studies import STUDIES, THESIS_DATA_SIZE, VARIANT_DATA, StudyRequest
     from krl.util.thesis import COMPARISON_EPOCHS, THESIS_SEEDS
 
     parser.add_argument("study", choices=STUDIES, help="variants (Table 4.4), data-size (4.5), stance (4.3)")
@@ -212,7 +212,7 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--walk-targets",
         type=int,
-        default=5,
+        default=default_of(StudyRequest, "walk_targets"),
         help="data-size, stance: count the kernels that walk to this many random waypoints (0: skip)",
     )
     parser.add_argument("--threads", type=int, help="PyTorch CPU threads")

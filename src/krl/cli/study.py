@@ -4,16 +4,14 @@ from __future__ import annotations
 
 import argparse
 import math
-import multiprocessing
-import os
 import shlex
 import sqlite3
 import sys
-import warnings
 from pathlib import Path
 
 from krl.agent.studies.storage import masked
 from krl.cli.common import CliError, emit, labelled_policies, parse_ints
+from krl.util.optuna_storage import HEARTBEAT
 
 
 def _settings(args: argparse.Namespace, design):
@@ -50,34 +48,6 @@ def _settings(args: argparse.Namespace, design):
     return settings
 
 
-def _work(
-    name: str, settings, out: str, url: str, heartbeat: float, log_to: str, parent: int | None = None
-) -> None:
-    """One study process: the parent's, or a job the parent (pid ``parent``) spawned, which leaves Ctrl-C
-    to the parent and dies with it; SIGTERM, from the start, stops such a job as Ctrl-C stops the parent
-    (its trial is queued again), and it leaves the report to the parent (no traceback). Its progress
-    lines and bars go where ``log_to`` says (:func:`_log`)."""
-    from krl.agent.studies.designs import STUDIES
-    from krl.agent.studies.runner import work
-    from krl.util.parallel import die_with_parent, signals_raise
-
-    if parent is not None:
-        die_with_parent(parent)
-    quiet = log_to == "quiet"
-
-    def log(line: str) -> None:
-        if not quiet:
-            print(line, file=sys.stderr if log_to == "stderr" else sys.stdout)
-
-    try:
-        with signals_raise():  # the parent's are already so; a job's SIGTERM would otherwise kill it
-            work(STUDIES[name], settings, Path(out), url, heartbeat, log=log, progress=not quiet)
-    except KeyboardInterrupt:
-        if parent is None:
-            raise
-        raise SystemExit(130) from None  # its trial is checkpointed and queued again
-
-
 SETTINGS_OPTIONS: tuple[str, ...] = (
     "budget",
     "confirm_budget",
@@ -110,27 +80,6 @@ def run_level_base(args: argparse.Namespace) -> int:
     return 0
 
 
-def _alternative_measurement(design, settings, out: Path, command: str) -> list[str]:
-    """The alternative study's report: the fixed command policies' rewards (the thesis's explanation of
-    its failed runs, measured); nothing for another study."""
-    if design.name != "alternative":
-        return []
-    from krl.agent.studies.runner import trial_config
-    from krl.analysis.agent.commands import fixed_command_runs, write_fixed_command_table
-
-    (commands,) = [v for v in design.variants if v.name == "commands"]
-    config = trial_config(design, settings, commands.overrides, settings.budget)
-    out.mkdir(parents=True, exist_ok=True)
-    return write_fixed_command_table(fixed_command_runs(config), out, command)
-
-
-def _database_errors() -> tuple[type[BaseException], ...]:
-    """The errors of a storage that opened but fails later (a lost connection, a file gone bad)."""
-    from sqlalchemy.exc import SQLAlchemyError
-
-    return (SQLAlchemyError, sqlite3.Error)
-
-
 def _log(args: argparse.Namespace) -> str:
     """Where a study's progress lines go: ``quiet`` (nowhere), ``stderr`` with ``--json`` (stdout holds
     the JSON alone) or ``stdout``."""
@@ -145,24 +94,6 @@ def _check_run_options(args: argparse.Namespace) -> None:
         raise CliError(f"--jobs must be at least 1, got {args.jobs}")
 
 
-def _check_storage(url: str, heartbeat: float) -> None:
-    """Open the study's storage once, before anything is trained or spawned: a bad one (malformed URL, no
-    driver, refused connection, missing or read-only folder, corrupt file, a foreign SQLite file) is one
-    line naming it, password masked."""
-    from krl.agent.studies.storage import check_study_database, storage_errors, storage_failure
-    from krl.util.optuna_storage import study_storage
-
-    try:
-        check_study_database(url)
-        with warnings.catch_warnings():  # Optuna's experimental heartbeat, as open_stage silences it
-            warnings.simplefilter("ignore")
-            study_storage(url, heartbeat).remove_session()
-    except ValueError as error:
-        raise CliError(str(error)) from None
-    except storage_errors() as error:
-        raise CliError(storage_failure(url, error)) from None
-
-
 def _snapshot(design, out: Path, url: str, args: argparse.Namespace) -> int:
     """``--snapshot DIR``: copy what resuming the study needs into DIR."""
     from krl.agent.studies.snapshot import snapshot_study
@@ -174,36 +105,11 @@ def _snapshot(design, out: Path, url: str, args: argparse.Namespace) -> int:
     return 0
 
 
-def _report(design, settings, out: Path, url: str, args: argparse.Namespace) -> int:
-    """``--report``: the tables and figures of what has finished, with the settings the study started
-    with unless others are given (then they must be the same)."""
-    from krl.agent.studies.report import write_study_report
-    from krl.agent.studies.runner import stored_settings
-    from krl.agent.studies.storage import storage_errors, storage_failure
-
-    try:
-        stored = stored_settings(design, url)
-    except ValueError as error:  # a foreign SQLite file: nothing written to it
-        raise CliError(str(error)) from None
-    except storage_errors() as error:
-        raise CliError(storage_failure(url, error)) from None
-    if stored is None:
-        raise CliError(f"study {design.name} has not been started in {masked(url)}: nothing to report")
-    if not any(getattr(args, name) is not None for name in SETTINGS_OPTIONS):
-        settings = stored
-    command = "krl " + masked(shlex.join(args.argv))
-    report_out = Path(args.report_out or out / "report")
-    extra = _alternative_measurement(design, settings, report_out, command)
-    emit(write_study_report(design, settings, url, report_out, command, extra), args.json)
-    return 0
-
-
 def run_study(args: argparse.Namespace) -> int:
     from krl.agent.studies.designs import STUDIES
-    from krl.agent.studies.report import open_stages, study_status, trial_errors
+    from krl.agent.studies.jobs import report_study, run_study
     from krl.agent.studies.runner import StudyError
     from krl.agent.studies.snapshot import DATABASE
-    from krl.agent.studies.storage import storage_failure
     from krl.util.parallel import usable_cores
 
     if args.name == "level-base":
@@ -215,53 +121,26 @@ def run_study(args: argparse.Namespace) -> int:
     _check_run_options(args)
     out = Path(args.out or f"runs/agent-studies/{design.name}")
     url = args.storage or f"sqlite:///{(out / DATABASE).resolve()}"
-    jobs = args.jobs or max(1, usable_cores() // max(1, settings.workers))
     if args.snapshot:
         return _snapshot(design, out, url, args)
     try:
-        if args.report:
-            return _report(design, settings, out, url, args)
-        out.mkdir(parents=True, exist_ok=True)
-        _check_storage(url, args.heartbeat)
-        _run_jobs(design.name, settings, out, url, args.heartbeat, _log(args), jobs)
-        stages = open_stages(design, settings, url)
+        if args.report:  # with the settings the study started with unless some are given
+            given = any(getattr(args, name) is not None for name in SETTINGS_OPTIONS)
+            command = "krl " + masked(shlex.join(args.argv))
+            report_out = Path(args.report_out or out / "report")
+            emit(report_study(design, settings if given else None, url, report_out, command), args.json)
+            return 0
+        jobs = args.jobs or max(1, usable_cores() // max(1, settings.workers))
+        status, errors = run_study(design, settings, out, url, args.heartbeat, _log(args), jobs)
     except StudyError as error:
         raise CliError(str(error)) from None
-    except _database_errors() as error:
-        raise CliError(storage_failure(url, error)) from None
-    emit(study_status(design, settings, url, stages), args.json)
-    errors = trial_errors(stages)
+    emit(status, args.json)
     if errors:  # a pipeline must not go on from a study whose runs did not finish
         print(
             f"krl: {len(errors)} trial(s) of study {design.name} failed, first {errors[0]}", file=sys.stderr
         )
         return 1
     return 0
-
-
-def _run_jobs(name: str, settings, out: Path, url: str, heartbeat: float, log_to: str, jobs: int) -> None:
-    """``jobs`` study processes: this one (its lines going where ``log_to`` says) and ``jobs - 1`` spawned
-    (quiet). Ctrl-C or SIGTERM of this one, while it trains or waits for the others, stops every job: each
-    checkpoints its trial and queues it again."""
-    from krl.util.optuna_storage import SQLITE_LOCK_TIMEOUT
-    from krl.util.parallel import signals_raise, stop_processes
-
-    spawn = multiprocessing.get_context("spawn")
-    others = [
-        spawn.Process(target=_work, args=(name, settings, str(out), url, heartbeat, "quiet", os.getpid()))
-        for _ in range(jobs - 1)
-    ]
-    with signals_raise():
-        for process in others:
-            process.start()
-        try:
-            _work(name, settings, str(out), url, heartbeat, log_to)
-            for process in others:
-                process.join()
-        except KeyboardInterrupt:
-            # each job checkpoints its trial and queues it again: as long as a SQLite write may wait
-            stop_processes(others, SQLITE_LOCK_TIMEOUT)
-            raise
 
 
 def register(group) -> None:
@@ -296,8 +175,9 @@ def register(group) -> None:
     p.add_argument(
         "--heartbeat",
         type=float,
-        default=60.0,
-        help="seconds between a running trial's heartbeats; a trial silent for 3 is retried (default 60)",
+        default=HEARTBEAT,
+        help="seconds between a running trial's heartbeats; a trial silent for 3 is retried "
+        "(default %(default)g)",
     )
     p.add_argument(
         "--report",

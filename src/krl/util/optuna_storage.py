@@ -7,11 +7,14 @@ import time
 SQLITE_LOCK_TIMEOUT: float = 120.0
 """How long a SQLite study's process waits for the file's write lock before it fails [s]."""
 
+HEARTBEAT: float = 60.0
+"""Seconds between a running trial's heartbeats unless given; a trial silent for three is retried."""
+
 CREATION_TRIES: int = 5
 """How many times a process opens a database storage whose first creation it lost to another process."""
 
 
-def study_storage(url: str, heartbeat: float = 60.0, retries: int = 2):
+def study_storage(url: str, heartbeat: float = HEARTBEAT, retries: int = 2):
     """An Optuna storage for ``url``. A database URL (``sqlite``, ``postgresql``, ``mysql``) gets heartbeats
     every ``heartbeat`` seconds: a running trial silent for three beats (its process died) is failed and
     enqueued again, up to ``retries`` times; SQLite waits up to :data:`SQLITE_LOCK_TIMEOUT` for its write

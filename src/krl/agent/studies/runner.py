@@ -42,7 +42,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 from krl.agent.studies.designs import StudyDesign, merged
 from krl.agent.studies.storage import check_study_database, masked
-from krl.util.optuna_storage import study_storage
+from krl.util.optuna_storage import HEARTBEAT, study_storage
 
 SEARCH, CONFIRM, LIST = "search", "confirm", "list"
 """A study's stages: a search's random trials and its confirming runs; a list study's runs."""
@@ -179,7 +179,9 @@ def pruner_rule(name: str, budget: int) -> str:
     return "none"
 
 
-def open_stage(design: StudyDesign, settings: StudySettings, stage: str, url: str, heartbeat: float = 60.0):
+def open_stage(
+    design: StudyDesign, settings: StudySettings, stage: str, url: str, heartbeat: float = HEARTBEAT
+):
     """The Optuna study of one stage (``NAME`` or ``NAME:confirm``), created or loaded; refuses one
     created with other settings."""
     import optuna
@@ -500,7 +502,7 @@ def work(
     settings: StudySettings,
     out: Path,
     url: str,
-    heartbeat: float = 60.0,
+    heartbeat: float = HEARTBEAT,
     log: Callable[[str], None] = print,
     progress: bool = False,
 ) -> None:

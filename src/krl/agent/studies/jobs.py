@@ -1,0 +1,166 @@
+"""One command's share of an agent study: its storage checked, its jobs run, its status or report written.
+
+``krl agent study NAME`` parses its options into a :class:`~krl.agent.studies.runner.StudySettings` and a
+storage URL and calls :func:`run_study` (train) or :func:`report_study` (``--report``). :func:`run_study`
+opens the storage once before anything trains (:func:`check_storage`), runs ``jobs`` study processes
+(this one and ``jobs - 1`` spawned; each takes trials from the shared storage until none is left, so any
+number of commands on any number of machines share one study) and returns the study's status. Ctrl-C or
+SIGTERM stops every job: each checkpoints its trial and queues it again. Whatever is wrong with the
+storage or the request is a :class:`~krl.agent.studies.runner.StudyError` of one line, password masked.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import sqlite3
+import sys
+import warnings
+from pathlib import Path
+from typing import Any
+
+from krl.agent.studies.designs import STUDIES, StudyDesign
+from krl.agent.studies.report import open_stages, study_status, trial_errors, write_study_report
+from krl.agent.studies.runner import StudyError, StudySettings, stored_settings, trial_config, work
+from krl.agent.studies.storage import check_study_database, masked, storage_errors, storage_failure
+from krl.util.optuna_storage import HEARTBEAT, SQLITE_LOCK_TIMEOUT, study_storage
+from krl.util.parallel import die_with_parent, signals_raise, stop_processes
+
+LOG_TO: tuple[str, ...] = ("stdout", "stderr", "quiet")
+"""Where a study process writes its progress lines (``quiet``: nowhere, and no bars)."""
+
+
+def _database_errors() -> tuple[type[BaseException], ...]:
+    """The errors of a storage that opened but fails later (a lost connection, a file gone bad)."""
+    from sqlalchemy.exc import SQLAlchemyError
+
+    return (SQLAlchemyError, sqlite3.Error)
+
+
+def check_storage(url: str, heartbeat: float) -> None:
+    """Open the study's storage once, before anything is trained or spawned: a bad one (malformed URL, no
+    driver, refused connection, missing or read-only folder, corrupt file, a foreign SQLite file) is a
+    :class:`StudyError` naming it, password masked."""
+    try:
+        check_study_database(url)
+        with warnings.catch_warnings():  # Optuna's experimental heartbeat, as open_stage silences it
+            warnings.simplefilter("ignore")
+            study_storage(url, heartbeat).remove_session()
+    except ValueError as error:
+        raise StudyError(str(error)) from None
+    except storage_errors() as error:
+        raise StudyError(storage_failure(url, error)) from None
+
+
+def _job(
+    name: str, settings, out: str, url: str, heartbeat: float, log_to: str, parent: int | None = None
+) -> None:
+    """One study process: the command's own, or a job it (pid ``parent``) spawned, which leaves Ctrl-C to
+    the parent and dies with it; SIGTERM, from the start, stops such a job as Ctrl-C stops the parent (its
+    trial is queued again), and it leaves the report to the parent (no traceback). Its progress lines and
+    bars go where ``log_to`` (one of :data:`LOG_TO`) says."""
+    if parent is not None:
+        die_with_parent(parent)
+    quiet = log_to == "quiet"
+
+    def log(line: str) -> None:
+        if not quiet:
+            print(line, file=sys.stderr if log_to == "stderr" else sys.stdout)
+
+    try:
+        with signals_raise():  # the parent's are already so; a job's SIGTERM would otherwise kill it
+            work(STUDIES[name], settings, Path(out), url, heartbeat, log=log, progress=not quiet)
+    except KeyboardInterrupt:
+        if parent is None:
+            raise
+        raise SystemExit(130) from None  # its trial is checkpointed and queued again
+
+
+def run_jobs(name: str, settings, out: Path, url: str, heartbeat: float, log_to: str, jobs: int) -> None:
+    """``jobs`` study processes: this one (its lines going where ``log_to`` says) and ``jobs - 1`` spawned
+    (quiet). Ctrl-C or SIGTERM of this one, while it trains or waits for the others, stops every job: each
+    checkpoints its trial and queues it again."""
+    spawn = multiprocessing.get_context("spawn")
+    others = [
+        spawn.Process(target=_job, args=(name, settings, str(out), url, heartbeat, "quiet", os.getpid()))
+        for _ in range(jobs - 1)
+    ]
+    with signals_raise():
+        for process in others:
+            process.start()
+        try:
+            _job(name, settings, str(out), url, heartbeat, log_to)
+            for process in others:
+                process.join()
+        except KeyboardInterrupt:
+            # each job checkpoints its trial and queues it again: as long as a SQLite write may wait
+            stop_processes(others, SQLITE_LOCK_TIMEOUT)
+            raise
+
+
+def run_study(
+    design: StudyDesign,
+    settings: StudySettings,
+    out: Path,
+    url: str,
+    heartbeat: float = HEARTBEAT,
+    log_to: str = "stdout",
+    jobs: int = 1,
+) -> tuple[dict[str, Any], list[str]]:
+    """Run ``jobs`` processes of the study until it has no trial left (see the module), its trial folders
+    under ``out``, its trials in the storage at ``url``. Returns its status
+    (:func:`~krl.agent.studies.report.study_status`) and its failed trials' errors (empty: all finished).
+
+    Raises:
+        StudyError: a bad storage, or settings other than the stored ones; one line.
+    """
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        check_storage(url, heartbeat)
+        run_jobs(design.name, settings, out, url, heartbeat, log_to, jobs)
+        stages = open_stages(design, settings, url)
+        return study_status(design, settings, url, stages), trial_errors(stages)
+    except _database_errors() as error:
+        raise StudyError(storage_failure(url, error)) from None
+
+
+def _alternative_measurement(
+    design: StudyDesign, settings: StudySettings, out: Path, command: str
+) -> list[str]:
+    """The alternative study's report: the fixed command policies' rewards (the thesis's explanation of
+    its failed runs, measured); nothing for another study."""
+    if design.name != "alternative":
+        return []
+    from krl.analysis.agent.commands import fixed_command_runs, write_fixed_command_table
+
+    (commands,) = [v for v in design.variants if v.name == "commands"]
+    config = trial_config(design, settings, commands.overrides, settings.budget)
+    out.mkdir(parents=True, exist_ok=True)
+    return write_fixed_command_table(fixed_command_runs(config), out, command)
+
+
+def report_study(
+    design: StudyDesign, settings: StudySettings | None, url: str, out: Path, command: str
+) -> dict[str, Any]:
+    """Write the tables and figures of what has finished into ``out``, with ``settings`` (None: those the
+    study started with; given ones must be the same); ``command`` is written beside them (mask its
+    password: :func:`~krl.agent.studies.storage.masked`). Returns the paths written.
+
+    Raises:
+        StudyError: the storage is bad or foreign, the study was never started there, or ``settings``
+            differ from the stored ones; one line, nothing written to the storage.
+    """
+    try:
+        stored = stored_settings(design, url)
+    except ValueError as error:  # a foreign SQLite file: nothing written to it
+        raise StudyError(str(error)) from None
+    except storage_errors() as error:
+        raise StudyError(storage_failure(url, error)) from None
+    if stored is None:
+        raise StudyError(f"study {design.name} has not been started in {masked(url)}: nothing to report")
+    settings = stored if settings is None else settings
+    try:
+        extra = _alternative_measurement(design, settings, out, command)
+        return write_study_report(design, settings, url, out, command, extra)
+    except _database_errors() as error:
+        raise StudyError(storage_failure(url, error)) from None
