@@ -11,7 +11,7 @@ import pytest
 from krl.agent.config import AgentConfig, PPOConfig
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")  # frozen: one instance serves every test
 def small_config() -> AgentConfig:
     """Thesis defaults with a small PPO (for speed) and few environments."""
     return AgentConfig(

@@ -48,8 +48,11 @@ SMOKE: dict[str, tuple[str, str | None]] = {
     "krl view --controller agent --course stairs": ("--duration 0.5", WINDOW),
     "krl bench sim --json": ("--steps 20 --repeats 1", None),
     "krl bench mpc --json": ("--seconds 0.5", None),
-    # the smallest training measurement bench agent has is three 4000-step PPO rollouts on every core
-    "krl bench agent --json": ("--num-envs 1 --steps 10 --repeats 1 --train-steps 1", None),
+    # the tiny agent's PPO: its training measurement is three 128-step rollouts (the default's are 4000)
+    "krl bench agent --json": (
+        "--num-envs 1 --steps 10 --repeats 1 --train-steps 1 --config agent-tiny.json",
+        None,
+    ),
     "krl expert run --targets 10 --seed 1 --json": ("--targets 1 --target-time-limit 1", None),
     "krl expert run --command 0.5,0,0 --duration 8 --video walk.mp4": (
         "--duration 2.1 --video-size 160x120",

@@ -106,10 +106,11 @@ def _snapshot(design, out: Path, url: str, args: argparse.Namespace) -> int:
 
 
 def run_study(args: argparse.Namespace) -> int:
+    from krl.agent.studies import jobs as study_jobs
     from krl.agent.studies.designs import STUDIES
-    from krl.agent.studies.jobs import report_study, run_study
     from krl.agent.studies.runner import StudyError
     from krl.agent.studies.snapshot import DATABASE
+    from krl.analysis.agent.commands import alternative_measurement
     from krl.util.parallel import usable_cores
 
     if args.name == "level-base":
@@ -128,10 +129,14 @@ def run_study(args: argparse.Namespace) -> int:
             given = any(getattr(args, name) is not None for name in SETTINGS_OPTIONS)
             command = "krl " + masked(shlex.join(args.argv))
             report_out = Path(args.report_out or out / "report")
-            emit(report_study(design, settings if given else None, url, report_out, command), args.json)
+            asked = settings if given else None
+            emit(
+                study_jobs.report_study(design, asked, url, report_out, command, alternative_measurement),
+                args.json,
+            )
             return 0
         jobs = args.jobs or max(1, usable_cores() // max(1, settings.workers))
-        status, errors = run_study(design, settings, out, url, args.heartbeat, _log(args), jobs)
+        status, errors = study_jobs.run_study(design, settings, out, url, args.heartbeat, _log(args), jobs)
     except StudyError as error:
         raise CliError(str(error)) from None
     emit(status, args.json)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,20 +23,22 @@ from krl.cli import main
 from krl.kernel.registry import load_model
 
 
-@pytest.fixture
-def tiny_group(tmp_path, small_config):
-    """Two tiny policies of one recipe (seeds 1 and 2) whose episodes last 0.5 s."""
+@pytest.fixture(scope="module")
+def tiny_group(tmp_path_factory, small_config):
+    """Two tiny policies of one recipe (seeds 1 and 2) whose episodes last 0.5 s, trained once for the
+    module: tests read them and write elsewhere."""
     config = replace(small_config, env=EnvConfig(episode_time=0.5))
+    folder = tmp_path_factory.mktemp("tiny-group")
     for seed in (1, 2):
         train(
-            tmp_path / f"tiny-seed{seed}",
+            folder / f"tiny-seed{seed}",
             config,
             seed=seed,
             total_steps=256,
             progress=False,
             log=lambda _: None,
         )
-    return str(tmp_path / "tiny-seed*")
+    return str(folder / "tiny-seed*")
 
 
 def heldout_json(capsys, *args: str) -> dict:
@@ -215,7 +218,7 @@ def test_the_chosen_runs_join_a_seed_group_and_a_different_policy_there_is_kept(
     result = heldout_json(capsys, *args, "--seed-group", str(group))
     assert result["written"]["seed_group"] == [str(group / "seed1"), str(group / "seed2")]
     for seed in (1, 2):
-        run = tmp_path / f"tiny-seed{seed}"
+        run = Path(tiny_group).parent / f"tiny-seed{seed}"
         for name in ("policy.npz", "config.json", "run.json", "progress.csv"):
             assert (group / f"seed{seed}" / name).read_bytes() == (run / name).read_bytes()
         assert not (group / f"seed{seed}" / "checkpoints").exists()

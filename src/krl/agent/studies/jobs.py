@@ -16,12 +16,13 @@ import os
 import sqlite3
 import sys
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from krl.agent.studies.designs import STUDIES, StudyDesign
 from krl.agent.studies.report import open_stages, study_status, trial_errors, write_study_report
-from krl.agent.studies.runner import StudyError, StudySettings, stored_settings, trial_config, work
+from krl.agent.studies.runner import StudyError, StudySettings, stored_settings, work
 from krl.agent.studies.storage import check_study_database, masked, storage_errors, storage_failure
 from krl.util.optuna_storage import HEARTBEAT, SQLITE_LOCK_TIMEOUT, study_storage
 from krl.util.parallel import die_with_parent, signals_raise, stop_processes
@@ -124,27 +125,23 @@ def run_study(
         raise StudyError(storage_failure(url, error)) from None
 
 
-def _alternative_measurement(
-    design: StudyDesign, settings: StudySettings, out: Path, command: str
-) -> list[str]:
-    """The alternative study's report: the fixed command policies' rewards (the thesis's explanation of
-    its failed runs, measured); nothing for another study."""
-    if design.name != "alternative":
-        return []
-    from krl.analysis.agent.commands import fixed_command_runs, write_fixed_command_table
-
-    (commands,) = [v for v in design.variants if v.name == "commands"]
-    config = trial_config(design, settings, commands.overrides, settings.budget)
-    out.mkdir(parents=True, exist_ok=True)
-    return write_fixed_command_table(fixed_command_runs(config), out, command)
+MeasuredSections = Callable[[StudyDesign, StudySettings, Path, str], list[str]]
+"""Sections a study's report adds from measurements of its own (design, settings, report folder, command:
+the paths written), as :func:`krl.analysis.agent.commands.alternative_measurement` does."""
 
 
 def report_study(
-    design: StudyDesign, settings: StudySettings | None, url: str, out: Path, command: str
+    design: StudyDesign,
+    settings: StudySettings | None,
+    url: str,
+    out: Path,
+    command: str,
+    measured: MeasuredSections | None = None,
 ) -> dict[str, Any]:
     """Write the tables and figures of what has finished into ``out``, with ``settings`` (None: those the
-    study started with; given ones must be the same); ``command`` is written beside them (mask its
-    password: :func:`~krl.agent.studies.storage.masked`). Returns the paths written.
+    study started with; given ones must be the same), and the sections ``measured`` adds; ``command`` is
+    written beside them (mask its password: :func:`~krl.agent.studies.storage.masked`). Returns the paths
+    written.
 
     Raises:
         StudyError: the storage is bad or foreign, the study was never started there, or ``settings``
@@ -160,7 +157,7 @@ def report_study(
         raise StudyError(f"study {design.name} has not been started in {masked(url)}: nothing to report")
     settings = stored if settings is None else settings
     try:
-        extra = _alternative_measurement(design, settings, out, command)
+        extra = [] if measured is None else measured(design, settings, out, command)
         return write_study_report(design, settings, url, out, command, extra)
     except _database_errors() as error:
         raise StudyError(storage_failure(url, error)) from None

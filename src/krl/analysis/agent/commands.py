@@ -111,3 +111,17 @@ def write_fixed_command_table(runs: list[dict[str, Any]], out: Path, command: st
             f"{r['targets_reached']:.2f} | {r['falls']} |"
         )
     return [*lines, ""]
+
+
+def alternative_measurement(design, settings, out: Path, command: str) -> list[str]:
+    """The alternative study's report sections (:data:`krl.agent.studies.jobs.MeasuredSections`): the fixed
+    command policies' rewards, the thesis's explanation of its failed runs, measured; nothing for another
+    study."""
+    from krl.agent.studies.runner import trial_config
+
+    if design.name != "alternative":
+        return []
+    (commands,) = [v for v in design.variants if v.name == "commands"]
+    config = trial_config(design, settings, commands.overrides, settings.budget)
+    out.mkdir(parents=True, exist_ok=True)
+    return write_fixed_command_table(fixed_command_runs(config), out, command)
