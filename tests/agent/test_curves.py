@@ -72,6 +72,40 @@ def test_krl_agent_curves_draws_groups_and_refuses_bad_ones(tmp_path, capsys):
         assert message in error and error.count("\n") == 1
 
 
+def test_reach_gives_the_steps_each_group_needs_to_reach_the_reference_level(tmp_path, capsys):
+    """Issue 45, item 7: the reference ends at 0.6; a faster group reaches it at 2e5 steps, a slower one
+    never, and a group trained on other ground is marked so."""
+    ref = [fake_run(tmp_path / f"ref{i}", [0, 200_000, 400_000], [1, 2, 3], [0.0, 0.3, 0.6]) for i in (1, 2)]
+    fast = fake_run(tmp_path / "fast", [0, 200_000, 400_000], [1, 2, 3], [0.0, 0.7, 0.9])
+    slow = fake_run(tmp_path / "slow", [0, 200_000, 400_000], [1, 2, 3], [0.0, 0.1, 0.5])
+    other = fake_run(tmp_path / "other", [0, 200_000, 400_000], [1, 2, 3], [0.6, 0.6, 0.6])
+    for run in (*ref, fast, slow):
+        (run / "config.json").write_text(json.dumps({"env": {"heightfield_probability": 0.5}}))
+    (other / "config.json").write_text(json.dumps({"env": {"heightfield_probability": 0.25}}))
+    out = tmp_path / "figures"
+    groups = [f"ref={ref[0]},{ref[1]}", f"fast={fast}", f"slow={slow}", f"other={other}"]
+    argv = ["agent", "curves", *(arg for group in groups for arg in ("--group", group)), "--out", str(out)]
+    assert main([*argv, "--reach", "ref", "--json"]) == 0
+    rows = {row["label"]: row for row in json.loads(capsys.readouterr().out)["reach"]}
+    assert {label: row["steps_to_level"] for label, row in rows.items()} == {
+        "ref": 400_000.0,
+        "fast": 200_000.0,
+        "slow": None,
+        "other": 0.0,
+    }
+    assert rows["ref"]["level"] == 0.6 and rows["ref"]["runs"] == 2
+    assert [label for label, row in rows.items() if not row["same_env"]] == ["other"]
+    table = (out / "reach.md").read_text()
+    assert "| slow | 1 | 0.50 | 0.4 | not reached | same |" in table and "| other |" in table
+    assert json.loads((out / "reach.json").read_text())["reference"] == "ref"
+    for extra, message in ((["--reach", "nobody"], "--reach 'nobody' is no --group label"),):
+        assert main([*argv, *extra]) == 2
+        error = capsys.readouterr().err
+        assert message in error and error.count("\n") == 1
+    assert main(["agent", "curves", str(fast), "--out", str(out), "--reach", "ref"]) == 2
+    assert "--reach needs --group" in capsys.readouterr().err
+
+
 def test_the_log_records_the_rollouts_success_rate():
     from types import SimpleNamespace
 

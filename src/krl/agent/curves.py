@@ -4,16 +4,20 @@ Read from each run folder's ``progress.csv`` and the segments resumptions set as
 (``progress.<steps>.csv``, :mod:`krl.agent.train`). :func:`plot_training_curves` draws one line per run;
 :func:`plot_seed_groups` draws, for each group of runs (the seeds of one agent), the mean over its runs
 and their spread (± one standard deviation) of the targets reached, the success rate and the fall rate,
-as the thesis's Fig. 4.23 does.
+as the thesis's Fig. 4.23 does; :func:`reach_rows` reads those curves as numbers: the env steps each group
+needs to reach a reference group's final success rate.
 """
 
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from krl.agent.config import AgentConfig, EnvConfig
 from krl.util.output import figure_bytes, write_atomic
 
 STEPS_COLUMN = "time/total_timesteps"
@@ -140,3 +144,88 @@ def plot_seed_groups(groups: dict[str, list[Path]], out: Path) -> list[Path]:
     write_atomic(path, figure_bytes(fig))
     plt.close(fig)
     return [path]
+
+
+REACH_COLUMN = "episode/success_rate"
+"""The measure :func:`reach_rows` compares: the training episodes' success rate (>= 2 targets, no fall)."""
+
+
+def steps_to_reach(curve: dict[str, np.ndarray], level: float) -> float | None:
+    """The first env step of ``curve`` (:func:`group_curve`) at which its mean is at or above ``level``;
+    None if it never is."""
+    reached = np.flatnonzero(curve["mean"] >= level - 1e-12)
+    return float(curve["steps"][reached[0]]) if reached.size else None
+
+
+def reach_rows(groups: dict[str, list[Path]], reference: str) -> list[dict[str, Any]]:
+    """Sample efficiency (the issue-45 question, Fig. 4.23's curves read as numbers): for each group, the
+    env steps at which its mean training success rate (:data:`REACH_COLUMN`, on :func:`group_curve`'s grid)
+    first reaches the ``reference`` group's final mean, the level the reference ends at.
+
+    Rows: ``label``, ``runs``, ``final_steps`` and ``final_success`` (the group's own last grid point),
+    ``level``, ``steps_to_level`` (None: never reached) and ``same_env``: whether the group's runs trained
+    in the reference's environment (the ``env`` section of their ``config.json``; false where one is
+    unreadable). A rate measures each
+    group on its own training ground with the stochastic actions of training, so only a group with
+    ``same_env`` compares with the level (a symmetric arm against its recipe without symmetry, say).
+
+    Raises:
+        ValueError: ``reference`` is no group, or a group logs no success rate.
+    """
+    if reference not in groups:
+        raise ValueError(f"--reach {reference!r} is no --group label (labels: {', '.join(groups)})")
+    curves = {label: group_curve(runs, REACH_COLUMN) for label, runs in groups.items()}
+    for label, curve in curves.items():
+        if not curve["runs"]:
+            raise ValueError(f"--group {label}: no run logs {REACH_COLUMN} (trained before it was logged)")
+    level = float(curves[reference]["mean"][-1])
+    envs = {label: {_env_section(run) for run in runs} for label, runs in groups.items()}
+    return [
+        {
+            "label": label,
+            "runs": curve["runs"],
+            "final_steps": float(curve["steps"][-1]),
+            "final_success": float(curve["mean"][-1]),
+            "level": level,
+            "steps_to_level": steps_to_reach(curve, level),
+            "same_env": envs[label] == envs[reference] and len(envs[label]) == 1 and None not in envs[label],
+        }
+        for label, curve in curves.items()
+    ]
+
+
+def _env_section(run: Path) -> EnvConfig | None:
+    """The environment a run folder's ``config.json`` trained in, fields it predates at their defaults
+    (None: no readable config)."""
+    try:
+        return AgentConfig.load(run / "config.json").env
+    except (OSError, ValueError):
+        return None
+
+
+def write_reach(rows: list[dict[str, Any]], reference: str, out: Path) -> list[Path]:
+    """Write :func:`reach_rows`'s table as ``reach.md`` and ``reach.json`` into ``out``; returns the paths."""
+
+    def millions(steps: float | None) -> str:
+        return "not reached" if steps is None else f"{steps / 1e6:.1f}"
+
+    level = rows[0]["level"]
+    lines = [
+        f"# Env steps to {reference}'s final training success ({level:.2f})",
+        "",
+        "| agent | runs | final success | at env steps [1e6] | reaches the level at [1e6] | its ground |",
+        "| --- | --- | --- | --- | --- | --- |",
+        *(
+            f"| {row['label']} | {row['runs']} | {row['final_success']:.2f} | {millions(row['final_steps'])} "
+            f"| {millions(row['steps_to_level'])} | {'same' if row['same_env'] else 'other'} |"
+            for row in rows
+        ),
+        "",
+        f"The mean over each agent's runs of `{REACH_COLUMN}` in `progress.csv` (training episodes, "
+        f"stochastic actions), on a grid of {GRID_STEPS:.0e} env steps. Only an agent trained on "
+        f"{reference}'s ground (its ground: same) compares with the level.",
+    ]
+    markdown, record = out / "reach.md", out / "reach.json"
+    write_atomic(markdown, "\n".join(lines) + "\n")
+    write_atomic(record, json.dumps({"reference": reference, "rows": rows}, indent=1) + "\n")
+    return [markdown, record]

@@ -128,10 +128,12 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_curves(args: argparse.Namespace) -> int:
-    from krl.agent.curves import plot_seed_groups, plot_training_curves
+    from krl.agent.curves import plot_seed_groups, plot_training_curves, reach_rows, write_reach
 
     if not args.run and not args.group:
         raise CliError("give run folders, or --group LABEL=RUN,RUN,... (or both)")
+    if args.reach and not args.group:
+        raise CliError("--reach needs --group: the level is a group's final success rate")
     groups: dict[str, list[Path]] = {}
     for text in args.group or []:
         label, _, runs = text.partition("=")
@@ -141,9 +143,13 @@ def run_curves(args: argparse.Namespace) -> int:
     paths = []
     if args.run:
         paths += plot_training_curves([Path(run) for run in args.run], Path(args.out))
+    rows = reach_rows(groups, args.reach) if args.reach else None  # a bad label: before anything is drawn
     if groups:
         paths += plot_seed_groups(groups, Path(args.out))
-    emit({"figures": [str(p) for p in paths]}, args.json)
+    result: dict = {"figures": [str(p) for p in paths]}
+    if rows is not None:
+        result |= {"reach": rows, "tables": [str(p) for p in write_reach(rows, args.reach, Path(args.out))]}
+    emit(result, args.json)
     return 0
 
 
@@ -331,6 +337,12 @@ def _add_curves(group) -> None:
         action="append",
         help="LABEL=RUN,RUN,... or LABEL=FOLDER of run folders: the runs of one agent's seeds, drawn as "
         "their mean and spread (seed-groups.png, Fig. 4.23); repeat for each agent",
+    )
+    p.add_argument(
+        "--reach",
+        metavar="LABEL",
+        help="with --group: the env steps at which each group's mean training success rate first reaches "
+        "LABEL's final one (reach.md, reach.json): sample efficiency",
     )
     p.add_argument("--out", required=True, help="output folder")
     _add_output(p)
