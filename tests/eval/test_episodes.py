@@ -19,7 +19,7 @@ def test_three_of_five_then_a_fall_scores_exactly_that():
     assert metrics["targets"] == 5
     assert metrics["targets_reached"] == 3
     assert metrics["fell"] is True and metrics["success"] is False
-    assert metrics["timed_out"] is False and metrics["error"] is None
+    assert metrics["timed_out"] is False and metrics["error"] is None and metrics["ended"] == "fell"
     assert metrics["steps"] == 13
     assert metrics["distance_walked"] == pytest.approx(3.25)
     assert metrics["time_to_finish"] is None
@@ -35,6 +35,7 @@ def test_every_waypoint_is_a_success_with_its_time():
     metrics = score_walk(PointSim(0.25), StandStill(), WAYPOINTS, (0.0, 0.0, 0.0), 60.0, 0.5)
     # the last waypoint (x = 5) is within 0.5 m at x = 4.75: step 19
     assert metrics["targets_reached"] == 5 and metrics["success"] is True and metrics["fell"] is False
+    assert metrics["ended"] == "finished"
     assert metrics["steps"] == 19
     assert metrics["time_to_finish"] == pytest.approx(19 * 0.005)
 
@@ -44,6 +45,17 @@ def test_the_course_time_limit_ends_the_run():
     # 0.04 s = 8 control steps: waypoints 1 (step 3) and 2 (step 7) reached, then time is up
     assert metrics["steps"] == 8 and metrics["targets_reached"] == 2
     assert metrics["timed_out"] is True and metrics["success"] is False and metrics["fell"] is False
+    assert metrics["ended"] == "timed_out"
+
+
+def test_a_step_that_passes_two_close_waypoints_counts_both():
+    """Issue 46: reaching the first waypoint (step 3, x = 0.75) leaves the robot within D_min of the second
+    (x = 1.2), so the task passes both on one step; the walk finishes at the third (step 11, x = 2.75) and
+    is a success with every waypoint counted, not a failure one waypoint short."""
+    close = np.array([[1.0, 0.0], [1.2, 0.0], [3.0, 0.0]])
+    metrics = score_walk(PointSim(0.25), StandStill(), close, (0.0, 0.0, 0.0), 60.0, 0.5)
+    assert metrics["targets_reached"] == 3 and metrics["success"] is True
+    assert metrics["ended"] == "finished" and metrics["steps"] == 11
 
 
 def test_a_diverging_simulation_is_recorded_not_raised():
@@ -54,7 +66,7 @@ def test_a_diverging_simulation_is_recorded_not_raised():
             return super().step(*args, **kwargs)
 
     metrics = score_walk(Diverging(0.25), StandStill(), WAYPOINTS, (0.0, 0.0, 0.0), 60.0, 0.5)
-    assert metrics["error"].startswith("SimulationUnstableError")
+    assert metrics["error"].startswith("SimulationUnstableError") and metrics["ended"] == "error"
     assert metrics["targets_reached"] == 1 and metrics["success"] is False
 
 

@@ -33,6 +33,7 @@ RUN_METRICS: tuple[str, ...] = (
     "fell",
     "timed_out",
     "error",
+    "ended",
     "steps",
     "reward_total",
     "reward_per_step",
@@ -42,7 +43,11 @@ RUN_METRICS: tuple[str, ...] = (
     "sim_seconds",
     "wall_seconds",
 )
-"""Keys of a run's metrics (:meth:`EpisodeScorer.metrics`)."""
+"""Keys of a run's metrics (:meth:`EpisodeScorer.metrics`). Records made before ``ended`` existed lack it."""
+
+ENDINGS: tuple[str, ...] = ("finished", "fell", "timed_out", "error")
+"""Why a walk ended, as its record's ``ended`` says: every waypoint reached; a fall; out of time (a
+waypoint's or the course's); an ``error`` (the simulation diverged, the MPC gave up)."""
 
 
 class EpisodeScorer:
@@ -80,17 +85,24 @@ class EpisodeScorer:
         moved = after.base_pos[:2] - record.before.base_pos[:2]
         self.distance_walked += math.hypot(moved[0], moved[1])
 
+    def passed(self, count: int) -> None:
+        """Count the waypoints the walk's task left behind (``count``): a step can leave two behind when
+        the next one already lies within D_min, and the step that reached it counted only one."""
+        self.targets_reached = max(self.targets_reached, count)
+
     def metrics(
         self, sim_seconds: float, wall_seconds: float, timed_out: bool, error: str | None = None
     ) -> dict[str, Any]:
         """The run's metrics (reward per step is the total over the steps taken, 0 for no step).
 
         ``error`` is the one-line reason a run ended early without a fall (the simulation diverged, the
-        MPC gave up); such a run is no success, and the aggregates count it as a fall.
+        MPC gave up); such a run is no success, and the aggregates count it as a fall. ``ended`` says why
+        the walk ended (one of :data:`ENDINGS`).
         """
         total = sum(self.term_sums.values())
         count = len(self.targets)
         success = self.targets_reached == count and not self.fell and error is None
+        ended = "error" if error else "fell" if self.fell else "timed_out" if timed_out else "finished"
         return {
             "targets": count,
             "targets_reached": self.targets_reached,
@@ -98,6 +110,7 @@ class EpisodeScorer:
             "fell": self.fell,
             "timed_out": timed_out,
             "error": error,
+            "ended": ended,
             "steps": self.steps,
             "reward_total": total,
             "reward_per_step": total / self.steps if self.steps else 0.0,
@@ -167,6 +180,7 @@ def score_walk(
             targets, target_time_limit=time_limit, reset=False, time_limit=time_limit, on_task_step=on_step
         )
         timed_out = result.timed_out
+        scorer.passed(result.targets_reached)
     except (SimulationUnstableError, MPCError) as failure:
         error = f"{type(failure).__name__}: {failure}"
     finally:
