@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import argparse
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import krl.cli
@@ -61,3 +63,12 @@ def test_evaluate_help_explains_every_summary_field():
     assert "(default runs/eval)" in text  # --out
     for field in ("results", "runs", "ran", "stored", "shared", "push_sweep", "controllers"):
         assert field in SUMMARY_FIELDS and f"{field}: " in text
+
+
+def test_the_parser_is_built_without_pytorch():
+    """``krl --help``, ``krl --version`` and every command that trains nothing start in about a second: the
+    parser imports no PyTorch (4 s of imports, once the help of ``krl agent heldout`` pulled it in)."""
+    code = "import sys; from krl.cli import build_parser; build_parser()\n"
+    code += "print(sorted({'torch', 'stable_baselines3'} & set(sys.modules)))"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert result.stdout.strip() == "[]"

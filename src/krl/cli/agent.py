@@ -222,7 +222,8 @@ def run_push(args: argparse.Namespace) -> int:
 
 def run_heldout(args: argparse.Namespace) -> int:
     from krl.agent.policy import policy_artifacts
-    from krl.analysis.agent.heldout_choice import HeldoutError, HeldoutRequest, run_heldout
+    from krl.analysis.agent.heldout_choice import run_heldout
+    from krl.analysis.agent.heldout_request import HeldoutError, HeldoutRequest
     from krl.util.progress import progress_bar
 
     request = HeldoutRequest(
@@ -403,8 +404,7 @@ def _add_push(group) -> None:
 
 def _add_heldout(group) -> None:
     """``krl agent heldout``."""
-    from krl.analysis.agent.heldout import HELDOUT_BATCH, MAX_EPISODES
-    from krl.analysis.agent.heldout_choice import HeldoutRequest
+    from krl.analysis.agent.heldout_request import HELDOUT_BATCH, MAX_EPISODES, HeldoutRequest
 
     p = group.add_parser(
         "heldout",

@@ -36,6 +36,7 @@ from krl.agent.callbacks import SUCCESS_TARGETS
 from krl.agent.config import AgentConfig, EnvConfig
 from krl.agent.policy import RECIPE_FIELDS, check_kernel_file, load_policy
 from krl.agent.process_vec_env import ProcessVecEnv
+from krl.analysis.agent.heldout_request import HELDOUT_BATCH, MAX_EPISODES
 from krl.kernel.model import load_kernel
 from krl.util.hashing import file_sha256
 from krl.util.output import json_value, write_atomic
@@ -47,17 +48,6 @@ sitting, ``+ 7919 k`` (``krl.agent.train``): below 10^6 for any run here, so nev
 
 METRICS: tuple[str, ...] = ("targets_reached", "success_rate", "fall_rate", "reward_per_step")
 """The per-policy measures, each a mean over its episodes."""
-
-
-HELDOUT_BATCH: int = 32
-"""Episodes walked at once, their environments built together (about 14 MB each): a larger count is
-walked in batches of this many, environment ``k`` still seeded ``HELDOUT_SEED + k``, so memory does not
-grow with the count. A count up to this (the documented 32) is one batch, walked as it always was."""
-
-MAX_EPISODES: int = 1024
-"""The most held-out episodes per policy file: 32 batches, a machine-day of 60 s episodes on a few cores.
-What still grows with the count is small: each episode's record and, for a policy that drives its gait,
-the driven numbers of every step (:func:`drive_usage`; at most about 0.4 GB here)."""
 
 
 def heldout_episodes(

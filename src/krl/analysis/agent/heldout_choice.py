@@ -11,14 +11,12 @@ before an episode is walked or a file written.
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 from typing import Any
 
 from krl.agent.config import AgentConfig, AgentConfigError, EnvConfig
 from krl.agent.process_vec_env import WorkerError
 from krl.analysis.agent.heldout import (
-    MAX_EPISODES,
     against_baseline,
     check_candidates,
     choose,
@@ -27,43 +25,10 @@ from krl.analysis.agent.heldout import (
     write_choice,
     write_verdict,
 )
+from krl.analysis.agent.heldout_request import MAX_EPISODES, HeldoutError, HeldoutRequest, PolicyGroups
 from krl.analysis.agent.heldout_tables import write_tables
 from krl.analysis.agent.seed_group import check_seeded, copy_into_group, group_copies
 from krl.util.parallel import usable_cores
-
-PolicyGroups = dict[str, list[tuple[int | None, Path]]]
-"""Policy files by label: ``{label: [(seed or None, path)]}``."""
-
-
-class HeldoutError(ValueError):
-    """A held-out request that cannot run as given; the message is one line and names the option."""
-
-
-@dataclasses.dataclass(frozen=True)
-class HeldoutRequest:
-    """One ``krl agent heldout``.
-
-    Attributes:
-        groups: the policy files by label.
-        out: the output folder (one record per policy file, the tables, the choice).
-        episodes: held-out episodes per policy file, 1 to :data:`~krl.analysis.agent.heldout.MAX_EPISODES`.
-        workers: environment processes (None: one per usable core).
-        candidates: the labels to choose among (empty: no choice, only the tables).
-        baseline: a label the choice must beat (None: none).
-        env: an agent config file whose env every policy walks instead of its own (None: its own).
-        baseline_env: an agent config file on whose env the choice must also be no worse than the baseline.
-        seed_group: a seed-group folder that receives the chosen label's policies (None: none).
-    """
-
-    groups: PolicyGroups
-    out: Path
-    episodes: int = 32
-    workers: int | None = None
-    candidates: tuple[str, ...] = ()
-    baseline: str | None = None
-    env: str | None = None
-    baseline_env: str | None = None
-    seed_group: Path | None = None
 
 
 def check_request(request: HeldoutRequest) -> int:
