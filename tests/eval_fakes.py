@@ -1,6 +1,8 @@
-"""A point robot and a do-nothing controller, to score runs whose every number is known by hand."""
+"""A point robot and a do-nothing controller, to score runs whose every number is known by hand; a short
+course for the tests that walk the real robot."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -107,3 +109,25 @@ class TurningPointSim(PointSim):
         )
         self.state = make_state(xy=(x, y), yaw=self.yaw, time=self.time, fallen=self.steps == self.fall_at)
         return self.state
+
+
+SHORT_FLAT = """format = 1
+name = "short-flat"
+description = "flat's four starts, one waypoint 1 m ahead"
+time_limit = 6.0
+d_min = 0.5
+waypoints = [[1.0, 0.0]]
+starts = [[0.0, 0.0, 0.0], [0.0, 0.3, -0.3], [0.0, -0.3, 0.3], [-0.5, 0.0, 0.0]]
+
+[terrain]
+name = "flat"
+seed = 0
+"""
+"""The shipped flat course cut short: its four starts, one waypoint, 6 s."""
+
+
+def short_flat(folder: Path) -> Path:
+    """Write :data:`SHORT_FLAT` into ``folder``; its path."""
+    path = folder / "short-flat.toml"
+    path.write_text(SHORT_FLAT)
+    return path

@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import pytest
 from agent_fakes import make_policy
+from eval_fakes import short_flat
 
 from krl.agent.config import AgentConfig
 from krl.agent.policy import load_policy, one_policy
@@ -101,25 +102,9 @@ def test_agent_errors_are_one_line(tmp_path, capsys):
     assert not (tmp_path / "run").exists()
 
 
-SHORT_FLAT = """format = 1
-name = "short-flat"
-description = "flat's four starts, one waypoint 1 m ahead"
-time_limit = 6.0
-d_min = 0.5
-waypoints = [[1.0, 0.0]]
-starts = [[0.0, 0.0, 0.0], [0.0, 0.3, -0.3], [0.0, -0.3, 0.3], [-0.5, 0.0, 0.0]]
-
-[terrain]
-name = "flat"
-seed = 0
-"""
-"""The flat course cut short: the same starts, one waypoint."""
-
-
 def test_evaluate_scores_an_agent_on_a_course(tmp_path, capsys):
     path = make_policy(AgentConfig()).save(tmp_path / "agent-zero.npz")
-    course, out = tmp_path / "short-flat.toml", tmp_path / "eval"
-    course.write_text(SHORT_FLAT)
+    course, out = short_flat(tmp_path), tmp_path / "eval"
     args = ["evaluate", "--controller", f"agent:{path}", "--course", str(course), "--workers", "1"]
     assert main([*args, "--out", str(out), "--quiet", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)

@@ -1,17 +1,21 @@
-"""``krl demo`` end to end, smoke-sized (one controller on the flat course, no video)."""
+"""``krl demo`` end to end, smoke-sized (the flat course cut short, no video)."""
 
 from __future__ import annotations
 
 import json
 
 import pytest
+from eval_fakes import short_flat
 
 from krl.cli import main
 
 
 def test_demo_writes_its_plot_and_table(tmp_path, capsys):
     out = tmp_path / "demo"
-    code = main(["demo", "--out", str(out), "--course", "flat", "--workers", "1", "--no-video", "--quiet"])
+    course = short_flat(tmp_path)
+    code = main(
+        ["demo", "--out", str(out), "--course", str(course), "--workers", "1", "--no-video", "--quiet"]
+    )
     assert code == 0
     printed = capsys.readouterr().out
     assert f"path: {out / 'path.png'}" in printed and "metrics:" in printed
