@@ -1,8 +1,10 @@
 """Optuna tuning: trials run, the study persists in SQLite and resumes, the best is written."""
 
 import json
+import sqlite3
 
 import optuna
+import pytest
 
 from krl.kernel.model import NetworkConfig
 from krl.kernel.train import TrainConfig
@@ -54,3 +56,28 @@ def test_tuning_persists_and_resumes(tmp_path, monkeypatch, synthetic_dataset):
     assert rows[0].startswith("number,state,val_l1,seconds,") and "learning_rate" in rows[0]
     assert len(rows) == 4 and all(",COMPLETE," in row for row in rows[1:])
     assert min(float(row.split(",")[2]) for row in rows[1:]) == best["best_value"]
+
+
+def test_a_bad_storage_is_one_line_with_its_password_masked_before_any_trial(tmp_path, synthetic_dataset):
+    """Issue 47's storage checks, for ``krl kernel tune`` too: a foreign SQLite file is not written to, and a
+    storage that cannot be opened is named in one line without its password."""
+    dataset = synthetic_dataset(targets=2, per_target=10)
+    foreign = tmp_path / "foreign.db"
+    with sqlite3.connect(foreign) as connection:
+        connection.execute("CREATE TABLE things (x)")
+    cases = (
+        (f"sqlite:///{foreign}", "is not an Optuna study database"),
+        (
+            "postgresql+nodriver://krl:secret@db/studies",
+            "cannot use study storage postgresql+nodriver://krl:***@db",
+        ),
+    )
+    for url, shown in cases:
+        with pytest.raises(ValueError) as refused:
+            tune(dataset, tmp_path / "out", trials=1, storage=url, progress=False)
+        message = str(refused.value)
+        assert shown in message and "secret" not in message and "\n" not in message
+    assert not (tmp_path / "out" / "trials").exists()
+    with sqlite3.connect(foreign) as connection:
+        tables = connection.execute("SELECT name FROM sqlite_master WHERE type = 'table'").fetchall()
+    assert tables == [("things",)]

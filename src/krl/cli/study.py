@@ -9,9 +9,8 @@ import sqlite3
 import sys
 from pathlib import Path
 
-from krl.agent.studies.storage import masked
 from krl.cli.common import CliError, emit, labelled_policies, parse_ints
-from krl.util.optuna_storage import HEARTBEAT
+from krl.util.optuna_storage import HEARTBEAT, masked
 
 
 def _settings(args: argparse.Namespace, design):

@@ -18,7 +18,7 @@ from typing import Any
 
 from krl.kernel.model import NetworkConfig
 from krl.kernel.train import TrainConfig, prepare_data, train_kernel
-from krl.util.optuna_storage import study_storage
+from krl.util.optuna_storage import check_storage, masked, study_storage
 from krl.util.output import write_atomic
 from krl.util.thesis import COMPARISON_EPOCHS
 
@@ -81,7 +81,11 @@ def tune(
 
     Each trial trains in ``out_dir/trials/<number>`` (its checkpoint lets a retried trial resume).
     The best trial's parameters are written to ``out_dir/best.json`` and every trial of the study so
-    far (all processes') to ``out_dir/trials.csv``.
+    far (all processes') to ``out_dir/trials.csv``. The summary shows ``storage`` with its password masked.
+
+    Raises:
+        ValueError: ``trials`` is negative, or the storage cannot be used (one line naming it, password
+            masked: :func:`krl.util.optuna_storage.check_storage`), before anything is trained.
     """
     import optuna
 
@@ -91,6 +95,7 @@ def tune(
     out.mkdir(parents=True, exist_ok=True)
     base = base or TrainConfig(epochs=COMPARISON_EPOCHS, patience=COMPARISON_EPOCHS)
     url = storage or f"sqlite:///{(out / 'study.db').resolve()}"
+    check_storage(url)
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(
         study_name=study_name,
@@ -126,7 +131,7 @@ def tune(
     completed = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
     summary: dict[str, Any] = {
         "study": study_name,
-        "storage": url,
+        "storage": masked(url),
         "trials_completed": len(completed),
         "trials_pruned": sum(t.state == optuna.trial.TrialState.PRUNED for t in study.trials),
     }

@@ -1,8 +1,20 @@
-"""The Optuna storage every krl search and study uses (``krl kernel tune``, ``krl agent study``)."""
+"""The Optuna storage every krl search and study uses (``krl kernel tune``, ``krl agent study``): opened
+(:func:`study_storage`), checked before anything trains (:func:`check_storage`), and shown.
+
+A PostgreSQL URL carries its password (``postgresql://USER:PASSWORD@HOST/DB``): :func:`masked` is the one
+helper through which every status, error and report shows or writes a URL or a command line holding one.
+:func:`check_study_database` refuses a SQLite file that is no Optuna study database before Optuna would
+create its tables in it, and :func:`storage_failure` words a storage that cannot be opened (a malformed
+URL, a missing driver, a refused connection, a missing or read-only folder, a corrupt file).
+"""
 
 from __future__ import annotations
 
+import re
+import sqlite3
 import time
+import warnings
+from pathlib import Path
 
 SQLITE_LOCK_TIMEOUT: float = 120.0
 """How long a SQLite study's process waits for the file's write lock before it fails [s]."""
@@ -59,3 +71,92 @@ def _lost_creation_race(error: Exception) -> bool:
     if isinstance(error, IntegrityError):
         return True
     return isinstance(error, (OperationalError, ProgrammingError)) and "already exists" in str(error)
+
+
+PASSWORD = re.compile(r"""(?:(?<=//)|(?<![^\s='"]))(?P<user>[^\s:/@'"]*):[^\s/'"]*@""")
+"""A URL's ``user:password@`` (after ``//``, or starting a word: a malformed URL too), the password up to
+the last ``@`` before the host."""
+
+MASK = "***"
+"""What a password is shown as."""
+
+SQLITE_PREFIX = "sqlite:///"
+"""The start of a SQLite file storage's URL (the path follows)."""
+
+OPTUNA_TABLES: frozenset[str] = frozenset({"studies", "trials", "version_info"})
+"""Tables every Optuna database storage holds."""
+
+BACKGROUND = re.compile(r"\s*\(Background on this error at: [^)]*\)")
+"""SQLAlchemy's link appended to its errors."""
+
+
+def masked(text: str) -> str:
+    """``text`` (a URL, a command line or a message holding one) with every URL's password shown as
+    :data:`MASK`: ``postgresql://krl:***@db/studies``."""
+    return PASSWORD.sub(rf"\g<user>:{MASK}@", text)
+
+
+def sqlite_path(url: str) -> Path | None:
+    """The file of a ``sqlite:///FILE`` storage URL; None for any other storage."""
+    return Path(url.removeprefix(SQLITE_PREFIX)) if url.startswith(SQLITE_PREFIX) else None
+
+
+def storage_failure(url: str, error: BaseException) -> str:
+    """One line naming the storage (password masked) and why it cannot be used: the error's first line,
+    without SQLAlchemy's background link."""
+    text = str(error).strip()
+    cause = BACKGROUND.sub("", text.splitlines()[0]) if text else type(error).__name__
+    return masked(f"cannot use study storage {url}: {cause}")
+
+
+def storage_errors() -> tuple[type[BaseException], ...]:
+    """The errors opening or querying a storage raises for a bad storage rather than a bug: SQLAlchemy's,
+    SQLite's, and Optuna's missing driver (an ``ImportError``)."""
+    from sqlalchemy.exc import SQLAlchemyError
+
+    return (SQLAlchemyError, sqlite3.Error, ImportError)
+
+
+def database_tables(path: Path) -> set[str]:
+    """The tables of the SQLite file ``path``, read without writing to it.
+
+    Raises:
+        sqlite3.Error: ``path`` is no SQLite database (garbage, truncated) or cannot be read.
+    """
+    connection = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
+    try:
+        rows = connection.execute("SELECT name FROM sqlite_master WHERE type = 'table'").fetchall()
+    finally:
+        connection.close()
+    return {name for (name,) in rows}
+
+
+def check_study_database(url: str) -> None:
+    """Raise ``ValueError`` (one line) for a SQLite storage whose file exists and is not an Optuna
+    database: no SQLite file at all, or one holding other tables (Optuna would add its own to it). A
+    missing or empty file, or another kind of storage, passes: Optuna creates what a new study needs."""
+    path = sqlite_path(url)
+    if path is None or not path.is_file() or path.stat().st_size == 0:
+        return
+    try:
+        tables = database_tables(path)
+    except sqlite3.Error as error:
+        raise ValueError(storage_failure(url, error)) from None
+    if tables and not OPTUNA_TABLES <= tables:
+        raise ValueError(
+            f"{path} is not an Optuna study database (its tables: {', '.join(sorted(tables)[:5])}); "
+            "give another --storage or --out"
+        )
+
+
+def check_storage(url: str, heartbeat: float = HEARTBEAT) -> None:
+    """Open the storage at ``url`` once, before anything is trained or spawned: a bad one (malformed URL, no
+    driver, refused connection, missing or read-only folder, corrupt file, a foreign SQLite file) raises
+    ``ValueError`` in one line naming it, password masked."""
+    try:
+        check_study_database(url)
+        with warnings.catch_warnings():  # Optuna's experimental heartbeat
+            warnings.simplefilter("ignore")
+            study_storage(url, heartbeat).remove_session()
+    except storage_errors() as error:
+        raise ValueError(storage_failure(url, error)) from None

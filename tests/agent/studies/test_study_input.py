@@ -13,10 +13,10 @@ import optuna
 import pytest
 from test_agent_studies import fake_train
 
-from krl.agent.studies import jobs, runner
-from krl.agent.studies.storage import masked
+from krl.agent.studies import runner
 from krl.cli import main
 from krl.util import optuna_storage
+from krl.util.optuna_storage import masked
 
 
 def study_cli(capsys, *argv: str) -> tuple[int, str, str]:
@@ -160,7 +160,6 @@ def as_sqlite(tmp_path, monkeypatch):
 
     monkeypatch.setattr(optuna_storage, "study_storage", served)
     monkeypatch.setattr(runner, "study_storage", served)
-    monkeypatch.setattr(jobs, "study_storage", served)
     monkeypatch.setattr("krl.agent.train.train", fake_train([]))
 
 

@@ -15,7 +15,6 @@ import multiprocessing
 import os
 import sqlite3
 import sys
-import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -23,8 +22,8 @@ from typing import Any
 from krl.agent.studies.designs import STUDIES, StudyDesign
 from krl.agent.studies.report import open_stages, study_status, trial_errors, write_study_report
 from krl.agent.studies.runner import StudyError, StudySettings, stored_settings, work
-from krl.agent.studies.storage import check_study_database, masked, storage_errors, storage_failure
-from krl.util.optuna_storage import HEARTBEAT, SQLITE_LOCK_TIMEOUT, study_storage
+from krl.util import optuna_storage
+from krl.util.optuna_storage import HEARTBEAT, SQLITE_LOCK_TIMEOUT, masked, storage_errors, storage_failure
 from krl.util.parallel import die_with_parent, signals_raise, stop_processes
 
 LOG_TO: tuple[str, ...] = ("stdout", "stderr", "quiet")
@@ -39,18 +38,11 @@ def _database_errors() -> tuple[type[BaseException], ...]:
 
 
 def check_storage(url: str, heartbeat: float) -> None:
-    """Open the study's storage once, before anything is trained or spawned: a bad one (malformed URL, no
-    driver, refused connection, missing or read-only folder, corrupt file, a foreign SQLite file) is a
-    :class:`StudyError` naming it, password masked."""
+    """:func:`krl.util.optuna_storage.check_storage`, its one line a :class:`StudyError`."""
     try:
-        check_study_database(url)
-        with warnings.catch_warnings():  # Optuna's experimental heartbeat, as open_stage silences it
-            warnings.simplefilter("ignore")
-            study_storage(url, heartbeat).remove_session()
+        optuna_storage.check_storage(url, heartbeat)
     except ValueError as error:
         raise StudyError(str(error)) from None
-    except storage_errors() as error:
-        raise StudyError(storage_failure(url, error)) from None
 
 
 def _job(
@@ -140,7 +132,7 @@ def report_study(
 ) -> dict[str, Any]:
     """Write the tables and figures of what has finished into ``out``, with ``settings`` (None: those the
     study started with; given ones must be the same), and the sections ``measured`` adds; ``command`` is
-    written beside them (mask its password: :func:`~krl.agent.studies.storage.masked`). Returns the paths
+    written beside them (mask its password: :func:`~krl.util.optuna_storage.masked`). Returns the paths
     written.
 
     Raises:

@@ -28,7 +28,7 @@ from krl.agent.studies.runner import (
     pruner,
     pruner_rule,
 )
-from krl.agent.studies.storage import masked
+from krl.util.optuna_storage import masked
 from krl.util.output import csv_bytes, distinct_colours, figure_bytes, write_atomic
 
 THESIS_FINDINGS: dict[str, str] = {

@@ -41,8 +41,7 @@ from typing import Any
 from stable_baselines3.common.callbacks import BaseCallback
 
 from krl.agent.studies.designs import StudyDesign, merged
-from krl.agent.studies.storage import check_study_database, masked
-from krl.util.optuna_storage import HEARTBEAT, study_storage
+from krl.util.optuna_storage import HEARTBEAT, check_study_database, masked, study_storage
 
 SEARCH, CONFIRM, LIST = "search", "confirm", "list"
 """A study's stages: a search's random trials and its confirming runs; a list study's runs."""
