@@ -7,7 +7,8 @@
 #   3. the held-out rule among sym, curriculum and sym-curriculum against agent-gait-ground's seeds 150 and
 #      215; where the choice stands, its seeds 345 and 556: agent-robust's four seeds;
 #   4. every run on the thesis and harder courses, the default and the balanced push sweeps and the friction
-#      sweep, beside agent-gait-ground, agent-rp and the expert, then the report.
+#      sweep, beside agent-gait-ground, agent-rp and the expert, then the report;
+#   5. sample efficiency: each arm's training success curve against its reference's final level.
 # Every step resumes where it stopped and a finished one is not redone: after an interruption run this
 # again. One SIGTERM (or Ctrl-C) to this script passes on to the running commands, which checkpoint.
 #
@@ -112,3 +113,13 @@ together "krl evaluate $controllers --push-sweep --push-directions balanced --at
 --out $EVAL-balanced --quiet"
 together "krl report --results $EVAL --out $REPORT"
 together "krl report --results $EVAL-balanced --out $REPORT-balanced"
+
+# 5. sample efficiency (docs/agent-robust.md): the env steps at which each arm's mean training success reaches
+# its reference's final one: the gait-ground arms against agent-gait-ground's seeds 150 and 215, rp-sym against
+# agent-rp's seeds 345 and 556 (the two whose logs hold the success rate)
+GROUND_RUNS=$ROOT/training/agent-studies/gait-ground/trials/list
+group() { echo "--group $1=$R/$1-seed150,$R/$1-seed215"; }
+together "krl agent curves --group baseline=$GROUND_RUNS/pyramids-pushes-seed150,$GROUND_RUNS/pyramids-pushes-seed215 \
+$(group sym) $(group curriculum) $(group sym-curriculum) --reach baseline --out $REPORT/curves"
+together "krl agent curves --group agent-rp=$ROOT/training/agent-rp-seed345,$ROOT/training/agent-rp-seed556 \
+$(group rp-sym) --reach agent-rp --out $REPORT/curves-rp"

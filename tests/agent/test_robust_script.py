@@ -1,6 +1,6 @@
 """examples/robust/agent-robust.sh against a stand-in ``krl`` that logs its arguments: the pilot and its
 choice, the winner's run going on as sym's seed 150, the arms' configs and runs in order, the held-out
-rule deciding whether agent-robust's seeds train, and both evaluations."""
+rule deciding whether agent-robust's seeds train, both evaluations, and the sample-efficiency curves."""
 
 from __future__ import annotations
 
@@ -83,3 +83,9 @@ def test_the_pipeline_runs_the_pre_registered_steps_in_order(tmp_path, stands):
     balanced = _index(lines, "evaluate", "--push-directions balanced", "--out evals-balanced")
     assert rule < evaluate < balanced
     assert ("--controller agent:runs/agent-robust " in lines[evaluate]) == (stands == "true")
+    curves = _index(lines, "agent curves", "--reach baseline", "--group sym=runs/robust/sym-seed150,")
+    curves_rp = _index(
+        lines, "agent curves", "--reach agent-rp", "--group rp-sym=runs/robust/rp-sym-seed150,"
+    )
+    assert balanced < curves < curves_rp and "--out report/curves" in lines[curves]
+    assert "pyramids-pushes-seed215 " in lines[curves] and "agent-rp-seed556 " in lines[curves_rp]
