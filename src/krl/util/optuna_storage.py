@@ -109,12 +109,18 @@ def storage_failure(url: str, error: BaseException) -> str:
     return masked(f"cannot use study storage {url}: {cause}")
 
 
-def storage_errors() -> tuple[type[BaseException], ...]:
-    """The errors opening or querying a storage raises for a bad storage rather than a bug: SQLAlchemy's,
-    SQLite's, and Optuna's missing driver (an ``ImportError``)."""
+def database_errors() -> tuple[type[BaseException], ...]:
+    """The errors of a storage that opened but fails later (a lost connection, a file gone bad):
+    SQLAlchemy's and SQLite's."""
     from sqlalchemy.exc import SQLAlchemyError
 
-    return (SQLAlchemyError, sqlite3.Error, ImportError)
+    return (SQLAlchemyError, sqlite3.Error)
+
+
+def storage_errors() -> tuple[type[BaseException], ...]:
+    """The errors opening or querying a storage raises for a bad storage rather than a bug:
+    :func:`database_errors` and Optuna's missing driver (an ``ImportError``)."""
+    return (*database_errors(), ImportError)
 
 
 def database_tables(path: Path) -> set[str]:

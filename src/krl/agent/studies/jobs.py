@@ -2,18 +2,18 @@
 
 ``krl agent study NAME`` parses its options into a :class:`~krl.agent.studies.runner.StudySettings` and a
 storage URL and calls :func:`run_study` (train) or :func:`report_study` (``--report``). :func:`run_study`
-opens the storage once before anything trains (:func:`check_storage`), runs ``jobs`` study processes
-(this one and ``jobs - 1`` spawned; each takes trials from the shared storage until none is left, so any
-number of commands on any number of machines share one study) and returns the study's status. Ctrl-C or
-SIGTERM stops every job: each checkpoints its trial and queues it again. Whatever is wrong with the
-storage or the request is a :class:`~krl.agent.studies.runner.StudyError` of one line, password masked.
+opens the storage once before anything trains (:func:`krl.util.optuna_storage.check_storage`), runs
+``jobs`` study processes (this one and ``jobs - 1`` spawned; each takes trials from the shared storage
+until none is left, so any number of commands on any number of machines share one study) and returns the
+study's status. Ctrl-C or SIGTERM stops every job: each checkpoints its trial and queues it again.
+Whatever is wrong with the storage or the request is a :class:`~krl.agent.studies.runner.StudyError` of
+one line, password masked.
 """
 
 from __future__ import annotations
 
 import multiprocessing
 import os
-import sqlite3
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -22,27 +22,16 @@ from typing import Any
 from krl.agent.studies.designs import STUDIES, StudyDesign
 from krl.agent.studies.report import open_stages, study_status, trial_errors, write_study_report
 from krl.agent.studies.runner import StudyError, StudySettings, stored_settings, work
-from krl.util import optuna_storage
-from krl.util.optuna_storage import HEARTBEAT, SQLITE_LOCK_TIMEOUT, masked, storage_errors, storage_failure
+from krl.util.optuna_storage import (
+    HEARTBEAT,
+    SQLITE_LOCK_TIMEOUT,
+    check_storage,
+    database_errors,
+    masked,
+    storage_errors,
+    storage_failure,
+)
 from krl.util.parallel import die_with_parent, signals_raise, stop_processes
-
-LOG_TO: tuple[str, ...] = ("stdout", "stderr", "quiet")
-"""Where a study process writes its progress lines (``quiet``: nowhere, and no bars)."""
-
-
-def _database_errors() -> tuple[type[BaseException], ...]:
-    """The errors of a storage that opened but fails later (a lost connection, a file gone bad)."""
-    from sqlalchemy.exc import SQLAlchemyError
-
-    return (SQLAlchemyError, sqlite3.Error)
-
-
-def check_storage(url: str, heartbeat: float) -> None:
-    """:func:`krl.util.optuna_storage.check_storage`, its one line a :class:`StudyError`."""
-    try:
-        optuna_storage.check_storage(url, heartbeat)
-    except ValueError as error:
-        raise StudyError(str(error)) from None
 
 
 def _job(
@@ -51,7 +40,7 @@ def _job(
     """One study process: the command's own, or a job it (pid ``parent``) spawned, which leaves Ctrl-C to
     the parent and dies with it; SIGTERM, from the start, stops such a job as Ctrl-C stops the parent (its
     trial is queued again), and it leaves the report to the parent (no traceback). Its progress lines and
-    bars go where ``log_to`` (one of :data:`LOG_TO`) says."""
+    bars go to ``log_to``: ``stdout``, ``stderr`` or ``quiet`` (nowhere, and no bars)."""
     if parent is not None:
         die_with_parent(parent)
     quiet = log_to == "quiet"
@@ -107,13 +96,16 @@ def run_study(
     Raises:
         StudyError: a bad storage, or settings other than the stored ones; one line.
     """
-    try:
-        out.mkdir(parents=True, exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
+    try:  # opened once before anything trains or is spawned
         check_storage(url, heartbeat)
+    except ValueError as error:
+        raise StudyError(str(error)) from None
+    try:
         run_jobs(design.name, settings, out, url, heartbeat, log_to, jobs)
         stages = open_stages(design, settings, url)
         return study_status(design, settings, url, stages), trial_errors(stages)
-    except _database_errors() as error:
+    except database_errors() as error:
         raise StudyError(storage_failure(url, error)) from None
 
 
@@ -151,5 +143,5 @@ def report_study(
     try:
         extra = [] if measured is None else measured(design, settings, out, command)
         return write_study_report(design, settings, url, out, command, extra)
-    except _database_errors() as error:
+    except database_errors() as error:
         raise StudyError(storage_failure(url, error)) from None

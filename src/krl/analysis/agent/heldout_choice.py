@@ -101,10 +101,9 @@ def _hold_against_baseline(
         pair = {label: request.groups[label] for label in (chosen, baseline)}
         out = request.out / "baseline-env"
         again = walk(pair, out, request.episodes, workers, baseline_env, bar)
-        write_tables(group_rows(again), again, out, None, request.baseline_env)
-        checks[f"`{request.baseline_env}`'s episodes"] = against_baseline(
-            group_rows(again), chosen, baseline, False
-        )
+        rows_again = group_rows(again)
+        write_tables(rows_again, again, out, None, request.baseline_env)
+        checks[f"`{request.baseline_env}`'s episodes"] = against_baseline(rows_again, chosen, baseline, False)
     stands = all(check["holds"] for check in checks.values())
     choice["baseline"] = {"label": baseline, "checks": checks, "stands": stands}
 
