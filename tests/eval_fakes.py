@@ -131,3 +131,26 @@ def short_flat(folder: Path) -> Path:
     path = folder / "short-flat.toml"
     path.write_text(SHORT_FLAT)
     return path
+
+
+def stored_record(out, label: str, run: str) -> dict:
+    """The record of run ``run`` (``tiny/start0``) of controller ``label`` in the results folder ``out``."""
+    from krl.eval.records import read_runs
+
+    return read_runs(out / label, label)[run].record
+
+
+def as_json_layout(out) -> None:
+    """Rewrite an evaluation folder's Parquet parts as the older layout, one JSON file per run (as krl
+    evaluate wrote them before Parquet), to test that older folders are still read."""
+    import json
+
+    from krl.eval.records import part_files, read_runs
+
+    for folder in sorted(path for path in out.iterdir() if path.is_dir()):
+        for run, stored in read_runs(folder).items():
+            path = folder / f"{run}.json"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps(stored.record, indent=1))
+        for part in part_files(folder):
+            part.unlink()

@@ -7,7 +7,7 @@ from collections import Counter
 
 import numpy as np
 import pytest
-from eval_fakes import StandStill, TurningPointSim
+from eval_fakes import StandStill, TurningPointSim, stored_record
 
 from krl.cli import main
 from krl.eval import evaluate
@@ -181,7 +181,7 @@ def test_cli_records_the_draw_in_the_summary_and_refuses_a_resume_with_another(t
     assert [(row["direction"], row["attempts"]) for row in rows] == [(d, 1) for d in PUSH_DIRECTIONS]
     sides = summary["controllers"]["kernel-base"]["push_left_right"]
     assert (sides["directions"], sides["left_attempts"], sides["right_attempts"]) == ("balanced", 1, 1)
-    stored = json.loads((out / "kernel-base" / "push" / "m300-a1.json").read_text())
+    stored = stored_record(out, "kernel-base", "push/m300-a1")
     assert stored["sweep"]["directions"] == "balanced" and stored["metrics"]["push"]["stratum"] == "left"
     assert main(argv) == 2  # the default draw, uniform, into the same results
     err = capsys.readouterr().err

@@ -4,6 +4,7 @@ import json
 
 import numpy as np
 import pytest
+from eval_fakes import stored_record
 
 from krl.cli import main
 from krl.eval import evaluate, summaries
@@ -38,7 +39,7 @@ def test_runs_are_stored_and_not_redone(tmp_path, tiny):
     seen = []
     records = evaluate.execute(tasks, tmp_path / "out", on_done=lambda task, record, how: seen.append(how))
     assert seen == ["ran", "ran"]
-    assert (tmp_path / "out" / "kernel-base" / "tiny" / "start1.json").exists()
+    assert [p.name for p in (tmp_path / "out" / "kernel-base").iterdir()] == ["part-00000.parquet"]
     assert records[0]["metrics"]["steps"] == 50 and records[0]["metrics"]["timed_out"] is True
     seen.clear()
     again = evaluate.execute(tasks, tmp_path / "out", on_done=lambda task, record, how: seen.append(how))
@@ -75,8 +76,9 @@ def test_a_changed_course_or_a_corrupt_file_is_refused(tmp_path, tiny):
     changed = evaluate.course_tasks(spec, [load_course(tiny)], [0])
     with pytest.raises(evaluate.EvaluationError, match="made by a different course than this run"):
         evaluate.execute(changed, out)
-    (out / "kernel-base" / "tiny" / "start0.json").write_text("{not json")
-    with pytest.raises(evaluate.EvaluationError, match="corrupt result file"):
+    part = out / "kernel-base" / "part-00000.parquet"
+    part.write_bytes(part.read_bytes()[:-100])
+    with pytest.raises(evaluate.EvaluationError, match=r"part-00000\.parquet: damaged record part"):
         evaluate.execute(changed, out)
 
 
@@ -230,9 +232,9 @@ def test_a_users_kernel_file_named_like_a_shipped_one_keeps_its_own_results(tmp_
     summary = json.loads(capsys.readouterr().out)
     assert (summary["runs"], summary["ran"]) == (4, 4)
     assert sorted(summary["controllers"]) == sorted(["kernel-base", user.label])
-    stored = sorted(str(p.relative_to(out)) for p in out.rglob("*.json"))
-    assert len(stored) == 4 and f"{user.label}/tiny/start0.json" in stored
-    base, ext = (json.loads((out / name / "tiny/start0.json").read_text()) for name in summary["controllers"])
+    stored = sorted(str(p.relative_to(out)) for p in out.rglob("*.parquet"))
+    assert stored == sorted(f"{label}/part-00000.parquet" for label in summary["controllers"])
+    base, ext = (stored_record(out, label, "tiny/start0") for label in summary["controllers"])
     assert base["metrics"] != ext["metrics"]
     assert main(argv) == 0  # and a re-run finds both, each made by its own controller
     assert json.loads(capsys.readouterr().out)["stored"] == 4
@@ -295,7 +297,9 @@ def test_two_different_runs_never_share_a_result_file(tmp_path, tiny):
     course = load_course(tiny)
     other = replace(course, waypoints=((4.0, 0.0),))  # same name, other content
     tasks = evaluate.course_tasks(parse_controller("kernel"), [course, other], [0])
-    with pytest.raises(evaluate.EvaluationError, match=r"tiny/start0\.json would hold two different runs"):
+    with pytest.raises(
+        evaluate.EvaluationError, match=r"run kernel-base tiny/start0 would be two different runs"
+    ):
         evaluate.execute(tasks, tmp_path / "out")
     assert not (tmp_path / "out").exists()
     kernel = parse_controller("kernel")

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 from agent_fakes import make_policy
+from eval_fakes import as_json_layout, stored_record
 
 from krl.agent.config import AgentConfig
 from krl.agent.policy import shipped_policy_dir
@@ -152,15 +153,15 @@ def test_a_group_that_gains_a_seed_keeps_the_records_of_the_others(tmp_path, tin
     out = tmp_path / "out"
     argv = evaluate_argv(out, "--controller", f"agent:{group}", "--course", str(tiny))
     assert main(argv) == 0
-    (record,) = out.glob("*/tiny/start0-seed150.json")
-    first = record.read_bytes()
-    assert json.loads(first)["controller"]["model_sha256"] == file_sha256(group / "policy-seed150.npz")
+    (label,) = (path.name for path in out.iterdir())
+    first = stored_record(out, label, "tiny/start0-seed150")
+    assert first["controller"]["model_sha256"] == file_sha256(group / "policy-seed150.npz")
     make_policy(AgentConfig(), seed=215).save(group / "policy-seed215.npz")
     capsys.readouterr()
     assert main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert (summary["ran"], summary["stored"]) == (1, 1)
-    assert record.read_bytes() == first
+    assert stored_record(out, label, "tiny/start0-seed150") == first
 
 
 def test_a_policy_file_in_two_groups_runs_once_and_each_group_keeps_its_record(tmp_path, tiny, capsys):
@@ -178,7 +179,7 @@ def test_a_policy_file_in_two_groups_runs_once_and_each_group_keeps_its_record(t
     labels = sorted(summary["controllers"])
     assert labels == sorted(parse_controller(f"agent:{folder}").label for folder in (variant, group))
     for seed in (150, 215):
-        a, b = (json.loads((out / label / f"tiny/start0-seed{seed}.json").read_text()) for label in labels)
+        a, b = (stored_record(out, label, f"tiny/start0-seed{seed}") for label in labels)
         assert a["controller"]["label"] != b["controller"]["label"]
         assert {**a, "controller": None} == {**b, "controller": None}
     # alone, the group computes the same records as the copies it was given
@@ -188,7 +189,7 @@ def test_a_policy_file_in_two_groups_runs_once_and_each_group_keeps_its_record(t
     group_label = parse_controller(f"agent:{group}").label
     for seed in (150, 215):
         copied, alone = (
-            json.loads((folder / group_label / f"tiny/start0-seed{seed}.json").read_text())
+            stored_record(folder, group_label, f"tiny/start0-seed{seed}")
             for folder in (out, tmp_path / "alone")
         )
         copied["metrics"].pop("wall_seconds"), alone["metrics"].pop("wall_seconds")
@@ -210,6 +211,7 @@ def test_records_that_named_the_whole_group_are_kept_while_its_files_are_unchang
     assert main(argv) == 0
     files = [file_sha256(group / f"policy-seed{seed}.npz") for seed in (150, 215)]
     group_hash = hashlib.sha256(f"150:{files[0]}\n215:{files[1]}".encode()).hexdigest()
+    as_json_layout(out)
     for record in out.glob("*/tiny/*.json"):  # as krl wrote a group's records before they named one file
         data = json.loads(record.read_text())
         data["controller"].update(model_sha256=group_hash, seeds=[150, 215])

@@ -4,6 +4,7 @@ import json
 
 import pytest
 from agent_fakes import make_policy
+from eval_fakes import stored_record
 
 from krl.agent.config import AgentConfig
 from krl.cli import main
@@ -176,7 +177,7 @@ def test_cli_friction_sweep_then_report(tmp_path, tiny, capsys):
         ("tiny", 1.0, 2),
         ("tiny", 0.4, 2),
     ]
-    stored = json.loads((out / "expert-stance0.2" / "friction" / "tiny-mu0.4-start1.json").read_text())
+    stored = stored_record(out, "expert-stance0.2", "friction/tiny-mu0.4-start1")
     assert stored["friction"] == 0.4 and stored["start"] == 1
     assert main(argv) == 0 and json.loads(capsys.readouterr().out)["stored"] == 6  # resumed
     assert main(["report", "--results", str(out), "--out", str(docs), "--json"]) == 0

@@ -221,4 +221,4 @@ def test_sigterm_stops_krl_evaluate_and_it_says_what_was_kept(tmp_path):
     _, err = parent.communicate(timeout=GONE_WITHIN + 10)
     assert parent.returncode == 143 and "interrupted after 0 of 2 runs" in err, err  # 128 + SIGTERM
     _assert_gone(children)
-    assert list((tmp_path / "out").rglob("start*.json")) == []
+    assert list((tmp_path / "out").rglob("*.parquet")) == []

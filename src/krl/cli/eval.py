@@ -250,8 +250,21 @@ def run_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_convert(args: argparse.Namespace) -> int:
+    """``krl convert-results``: a results folder of per-run JSON files as one Parquet part per controller."""
+    from krl.eval.records import convert
+
+    results = Path(args.results)
+    converted = convert(results, args.controller)
+    runs = sum(entry["runs"] for entry in converted.values())
+    removed = sum(entry["json_removed"] for entry in converted.values())
+    summary = {"results": str(results), "runs": runs, "json_removed": removed, "controllers": converted}
+    emit(summary, args.json)
+    return 0
+
+
 def register(subparsers) -> None:
-    """Add ``krl evaluate`` and ``krl report`` to the main parser's subcommands."""
+    """Add ``krl evaluate``, ``krl report`` and ``krl convert-results`` to the main parser's subcommands."""
     p = subparsers.add_parser(
         "evaluate",
         help="score controllers on the courses, the push sweep or the friction sweep (resumable)",
@@ -265,3 +278,12 @@ def register(subparsers) -> None:
     )
     add_report_arguments(p)
     p.set_defaults(func=run_report)
+    p = subparsers.add_parser(
+        "convert-results",
+        help="rewrite a krl evaluate folder of per-run JSON files as one Parquet part per controller "
+        "(each part read back before a file is removed; resumable)",
+    )
+    p.add_argument("results", help="the krl evaluate results folder")
+    p.add_argument("--controller", action="append", metavar="LABEL", help="only these (default: all found)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=run_convert)

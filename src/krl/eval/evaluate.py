@@ -2,10 +2,11 @@
 core, resumably.
 
 Each run (a course from one start pose, with one seed where the controller depends on it; one attempt at
-one push magnitude; or a course from one start pose at one ground friction) is a :class:`Task`. Workers
-run tasks and return their records; the main process writes each record atomically to
-``OUT/<controller>/<course>/<run>.json`` (``OUT/<controller>/push/m<N>-a<k>.json``,
-``OUT/<controller>/friction/<course>-mu<μ>-start<k>.json``) as it arrives. A record stores what made it
+one push magnitude; or a course from one start pose at one ground friction) is a :class:`Task`, keyed
+``<course>/start<k>``, ``push/m<N>-a<k>`` or ``friction/<course>-mu<μ>-start<k>`` (``-seed<S>`` appended
+for a seed group). Workers run tasks and return their records; the main process writes them as Parquet
+parts of ``OUT/<controller>/`` (:mod:`krl.eval.records`: atomically, in batches, merged into one part at the
+end) and reads the older layout's ``OUT/<controller>/<key>.json`` too. A record stores what made it
 (controller, course or sweep fingerprint, seed, friction), so a re-run skips finished runs and refuses to
 mix results of a different course file or kernel into the same directory. A seed group's run records its
 own seed's policy file, so adding a seed to a group keeps the other seeds' records. Every run is seeded by
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,11 +28,14 @@ import numpy as np
 from krl.eval.controllers import ControllerSpec
 from krl.eval.courses import Course
 from krl.eval.episodes import FrictionSweep, PushSweep, score_push_attempt, score_walk
+from krl.eval.records import EvaluationError, RecordWriter, read_runs, remove_leftovers
 from krl.util.output import write_atomic
 from krl.util.parallel import run_jobs
 
+__all__ = ["EvaluationError"]  # defined with the records it refuses, raised from here too
+
 RESULT_FORMAT = 1
-"""Version of the per-run result files."""
+"""Version of the per-run records' fields (the parts' layout: :data:`krl.eval.records.PART_FORMAT`)."""
 
 PUSH_DIR = "push"
 """Subdirectory of a controller's results that holds the push sweep."""
@@ -44,16 +49,12 @@ HOW_DONE = ("ran", "stored", "shared")
 record of the same run under another label (:func:`run_identity`), made in this call or stored."""
 
 
-class EvaluationError(RuntimeError):
-    """Stored results that cannot be used (corrupt, or made by something else); one line."""
-
-
 @dataclass(frozen=True)
 class Task:
     """One run. Plain data: it travels to a worker process."""
 
     key: str
-    """Result path under the controller's directory, without ``.json`` (``stairs/start0``)."""
+    """The run's key under its controller, ``<group>/<name>`` (``stairs/start0``)."""
     controller: ControllerSpec
     course: Course | None = None
     start: int = 0
@@ -198,27 +199,18 @@ def run_task(task: Task) -> dict[str, Any]:
     return {**task.identity(), "run": task.key, "metrics": metrics}
 
 
-def result_path(out: Path, task: Task) -> Path:
-    return out / task.controller.label / f"{task.key}.json"
-
-
-def load_record(path: Path, task: Task | None = None) -> dict[str, Any]:
-    """Read one stored record; with ``task``, check it was made by that task."""
-    try:
-        record = json.loads(path.read_text())
-        record["metrics"]["success"]
-    except (OSError, ValueError, KeyError, TypeError) as error:
-        raise EvaluationError(f"{path}: corrupt result file ({error}); delete it to redo that run") from None
-    if task is not None:
-        identity = task.identity()
-        stored = {key: record.get(key) for key in identity}
-        if task.controller.described_as(stored["controller"], task.seed):
-            stored["controller"] = identity["controller"]
-        if stored != identity:
-            raise EvaluationError(
-                f"{path} was made by a different {_differences(stored, identity)} than this run; "
-                "use another --out or delete the old results"
-            )
+def check_record(record: dict[str, Any], task: Task, source: Path) -> dict[str, Any]:
+    """``record`` (stored in ``source``) if ``task`` made it; an :class:`EvaluationError` otherwise."""
+    identity = task.identity()
+    stored = {key: record.get(key) for key in identity}
+    if task.controller.described_as(stored["controller"], task.seed):
+        stored["controller"] = identity["controller"]
+    if stored != identity:
+        where = f"{source}" + (f" (run {task.key})" if source.suffix != ".json" else "")
+        raise EvaluationError(
+            f"{where} was made by a different {_differences(stored, identity)} than this run; "
+            "use another --out or delete the old results"
+        )
     return record
 
 
@@ -263,55 +255,62 @@ def execute(
     """Run the tasks whose results are not stored yet; return every task's record, in task order.
 
     Everything is checked before anything is written: the worker count; that no two different runs
-    would share a result file (same controller label and run key, different identity: an
+    would share a record (same controller label and run key, different identity: an
     :class:`EvaluationError`; equal tasks run once); and that every stored result was made by its task.
     Tasks that compute the same record under different labels (:func:`run_identity`) run once: each gets
     the record under its own label, copied from a stored one where there is one. Then ``on_start()`` is
     called (the CLI records its command there), and ``on_done(task, record, how)`` for each task as its
-    record becomes available, ``how`` one of :data:`HOW_DONE`. The runs go through
-    :func:`krl.util.parallel.run_jobs`: Ctrl-C or SIGTERM stops the workers and raises
-    :class:`krl.util.parallel.Interrupted` (a ``KeyboardInterrupt``); only the runs in flight are lost, every
-    record passed to ``on_done`` is stored.
+    record becomes available, ``how`` one of :data:`HOW_DONE`. Records are written in batches
+    (:class:`krl.eval.records.RecordWriter`) and each controller's parts merged into one at the end. The
+    runs go through :func:`krl.util.parallel.run_jobs`: Ctrl-C or SIGTERM stops the workers, writes the
+    records waiting and raises :class:`krl.util.parallel.Interrupted` (a ``KeyboardInterrupt``); only the
+    runs in flight are lost (a killed process loses at most a batch).
     """
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
-    planned: dict[Path, Task] = {}
+    planned: dict[tuple[str, str], Task] = {}
     for task in tasks:
-        path = result_path(out, task)
-        other = planned.setdefault(path, task)
+        other = planned.setdefault((task.controller.label, task.key), task)
         if other.identity() != task.identity():
             raise EvaluationError(
-                f"{path} would hold two different runs of this call (they differ in "
-                f"{_differences(other.identity(), task.identity())}); give them different names"
+                f"run {task.controller.label} {task.key} would be two different runs of this call (they "
+                f"differ in {_differences(other.identity(), task.identity())}); give them different names"
             )
-    keys = {path: run_identity(task) for path, task in planned.items()}
-    records: dict[Path, dict[str, Any]] = {}
+    keys = {where: run_identity(task) for where, task in planned.items()}
+    records: dict[tuple[str, str], dict[str, Any]] = {}
     stored: dict[str, dict[str, Any]] = {}  # a stored record of each run identity that has one
-    for path, task in planned.items():
-        if path.exists() and not (task.video and not Path(task.video).exists()):
-            records[path] = stored[keys[path]] = load_record(path, task)
+    for label in dict.fromkeys(label for label, _ in planned):
+        runs = read_runs(out / label, label) if (out / label).is_dir() else {}
+        for key, found in runs.items():
+            task = planned.get((label, key))
+            if task is not None and not (task.video and not Path(task.video).exists()):
+                where = (label, key)
+                records[where] = stored[keys[where]] = check_record(found.record, task, found.source)
     served: dict[str, list[Task]] = {}  # the tasks without a record, by run identity
-    for path, task in planned.items():
-        if path not in records:
-            served.setdefault(keys[path], []).append(task)
+    for where, task in planned.items():
+        if where not in records:
+            served.setdefault(keys[where], []).append(task)
     to_run = [key for key in served if key not in stored]
     if on_start is not None:
         on_start()
+    for label in dict.fromkeys(label for label, _ in planned) if served else ():
+        for leftover in remove_leftovers(out / label):
+            print(
+                f"krl: removed {leftover}, a part an interrupted evaluation left half-written",
+                file=sys.stderr,
+            )
+    writer = RecordWriter(out)
 
     def store(task: Task, record: dict[str, Any], how: str) -> None:
         mine = {**record, **task.identity()}  # under the task's own label
-        path = result_path(out, task)
-        write_atomic(path, json.dumps(mine, indent=1))
-        records[path] = mine
+        writer.add(task.controller.label, mine)
+        records[task.controller.label, task.key] = mine
         if on_done is not None:
             on_done(task, mine, how)
 
     if on_done is not None:
-        for path, record in records.items():
-            on_done(planned[path], record, "stored")
-    for key, same in served.items():
-        for task in same if key in stored else ():
-            store(task, stored[key], "shared")
+        for where, record in records.items():
+            on_done(planned[where], record, "stored")
 
     def finish(index: int, record: dict[str, Any]) -> None:
         first, *others = served[to_run[index]]
@@ -319,8 +318,15 @@ def execute(
         for task in others:
             store(task, record, "shared")
 
-    run_jobs(run_task, [served[key][0] for key in to_run], workers, on_result=finish)
-    return [records[result_path(out, task)] for task in tasks]
+    try:
+        for key, same in served.items():
+            for task in same if key in stored else ():
+                store(task, stored[key], "shared")
+        run_jobs(run_task, [served[key][0] for key in to_run], workers, on_result=finish)
+    finally:
+        writer.flush()
+    writer.consolidate()
+    return [records[task.controller.label, task.key] for task in tasks]
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """``krl report``: the thesis's Tables 5.1-5.5 and the evaluation plots from stored ``krl evaluate`` results.
 
-Reads ``RESULTS/<controller>/<course>/*.json``, ``RESULTS/<controller>/push/*.json`` and
-``RESULTS/<controller>/friction/*.json`` and writes, into ``OUT``: ``evaluation.md`` (every table, the
+Reads each controller's records in ``RESULTS/<controller>/`` (:func:`krl.eval.records.read_runs`: its
+Parquet parts, or the older layout's JSON files) and writes, into ``OUT``: ``evaluation.md`` (every table, the
 thesis's numbers beside ours, the commands that made the results), one CSV per table, ``courses.png``
 (success and fall rate per course and controller) and, from ``krl.eval.sweep_report``, the push sweep's
 (``push.png``: success rate against push magnitude; ``push-direction.csv``) and the friction sweep's
@@ -15,7 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from krl.eval.courses import THESIS_COURSES
-from krl.eval.evaluate import FRICTION_DIR, PUSH_DIR, load_record
+from krl.eval.evaluate import FRICTION_DIR, PUSH_DIR
+from krl.eval.records import labels_in, read_runs
 from krl.eval.summaries import summarise_course, summarise_course_by_seed
 from krl.eval.sweep_report import write_sweep_sections
 from krl.eval.tables import controller_table, rows_csv
@@ -63,17 +64,14 @@ def collect(
     """``{controller: {course or "push": [records]}}`` from a results directory."""
     if not results.is_dir():
         raise FileNotFoundError(f"no results directory {str(results)!r} (run `krl evaluate` first)")
-    labels = controllers or sorted(p.name for p in results.iterdir() if p.is_dir())
     found: dict[str, dict[str, list[dict[str, Any]]]] = {}
-    for label in labels:
+    for label in controllers or labels_in(results):
         directory = results / label
         if not directory.is_dir():
             raise FileNotFoundError(f"no results for controller {label!r} in {str(results)!r}")
-        groups = {}
-        for sub in sorted(p for p in directory.iterdir() if p.is_dir()):
-            records = [load_record(path) for path in sorted(sub.glob("*.json"))]
-            if records:
-                groups[sub.name] = records
+        groups: dict[str, list[dict[str, Any]]] = {}
+        for run, stored in read_runs(directory, label).items():
+            groups.setdefault(run.partition("/")[0], []).append(stored.record)
         found[label] = groups
     return found
 

@@ -1,7 +1,7 @@
 """Summaries of ``krl evaluate`` records: a course's row (Tables 5.1-5.4), the push sweep's (Table 5.5) and
 its push directions, the friction sweep's, each pooled over a seed group's runs or per training seed.
 
-Pure functions of the records (:func:`krl.eval.evaluate.load_record`), shared by ``krl evaluate --json`` and
+Pure functions of the records (:func:`krl.eval.records.read_runs`), shared by ``krl evaluate --json`` and
 ``krl report``.
 """
 

@@ -1,0 +1,291 @@
+"""Where ``krl evaluate`` keeps its records: a Parquet dataset per controller, in its results folder.
+
+An evaluation's folder ``OUT`` holds one folder per controller label::
+
+    OUT/<label>/part-00000.parquet   runs, a row each (:data:`COLUMNS`), written atomically per batch
+    OUT/<label>/commands.txt         the krl evaluate commands that wrote them
+    OUT/<label>/<group>/<name>.json  the layout before Parquet (one file per run), still read
+
+A run's *key* is its path under the label without ``.json``: ``<group>/<name>``, the group being a course
+name, ``push`` or ``friction`` (``stairs/start0-seed150``, ``push/m400-a12``). A part's ``record`` column
+holds each run's record as JSON, exactly as the older layout's file held it (identity, ``run``, ``metrics``);
+the other columns repeat a few of its fields for queries (``pyarrow.dataset``, pandas, DuckDB) and are not
+read back. The schema metadata names the label and the format and holds the SHA-256 of the records, so a
+damaged part, a part of another controller or a half-written one is refused in one line rather than mixed
+into results; a temporary file that an interrupted write left behind is removed (its runs run again).
+
+:func:`read_runs` reads both layouts; :class:`RecordWriter` buffers records and writes parts;
+:func:`consolidate` merges a label's parts (and, converting an old folder, its JSON files) into one part,
+reading it back before anything is removed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import io
+import json
+import time
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from krl.util.output import write_atomic
+
+PART_FORMAT = 1
+"""Version of the part files' layout (:data:`COLUMNS` and metadata)."""
+
+PART_GLOB = "part-*.parquet"
+PART_NAME = "part-{index:05d}.parquet"
+METADATA_KEY = b"krl.evaluation"
+"""Schema metadata key of a part: JSON ``{"format", "label", "runs", "records_sha256"}``."""
+
+COLUMNS: dict[str, str] = {
+    "controller": "the controller's label (string)",
+    "run": "the run's key, <group>/<name> (string)",
+    "group": "a course name, push or friction (string)",
+    "seed": "the training seed of a seed group's policy, null for one policy (int64)",
+    "success": "every waypoint reached (bool)",
+    "fell": "the robot fell (bool)",
+    "targets_reached": "waypoints reached (int64)",
+    "reward_per_step": "the final reward summed over the run over its control steps (float64)",
+    "record": "the whole record as JSON: identity, run and metrics (string); the source of truth",
+}
+"""A part's columns and what each holds."""
+
+FLUSH_RECORDS = 256
+"""A writer writes a part once this many records wait..."""
+FLUSH_SECONDS = 60.0
+"""...or once the oldest waiting record has waited this long [s]: a killed evaluation loses at most that."""
+
+
+class EvaluationError(RuntimeError):
+    """Stored results that cannot be used (corrupt, or made by something else); one line."""
+
+
+def run_order(run: str) -> tuple[str, str]:
+    """The order records are listed in: by group, then by the older layout's file name."""
+    group, _, name = run.partition("/")
+    return group, name + ".json"
+
+
+@dataclass(frozen=True)
+class StoredRun:
+    """A stored record and where it is (a part file or a JSON file)."""
+
+    record: dict[str, Any]
+    source: Path
+
+
+def _record_text(record: dict[str, Any]) -> str:
+    return json.dumps(record)
+
+
+def _sha256(texts: Sequence[str]) -> str:
+    return hashlib.sha256("\n".join(texts).encode()).hexdigest()
+
+
+def _table(label: str, records: Sequence[dict[str, Any]]):
+    """The ``pyarrow.Table`` of a part holding ``records`` (in the order given) of controller ``label``."""
+    import pyarrow as pa
+
+    texts = [_record_text(r) for r in records]
+    metrics = [r["metrics"] for r in records]
+    meta = {"format": PART_FORMAT, "label": label, "runs": len(records), "records_sha256": _sha256(texts)}
+    columns = {
+        "controller": pa.array([label] * len(records), pa.string()),
+        "run": pa.array([r["run"] for r in records], pa.string()),
+        "group": pa.array([r["run"].partition("/")[0] for r in records], pa.string()),
+        "seed": pa.array([r.get("seed") for r in records], pa.int64()),
+        "success": pa.array([m.get("success") for m in metrics], pa.bool_()),
+        "fell": pa.array([m.get("fell") for m in metrics], pa.bool_()),
+        "targets_reached": pa.array([m.get("targets_reached") for m in metrics], pa.int64()),
+        "reward_per_step": pa.array([m.get("reward_per_step") for m in metrics], pa.float64()),
+        "record": pa.array(texts, pa.string()),
+    }
+    return pa.table(columns).replace_schema_metadata({METADATA_KEY: json.dumps(meta).encode()})
+
+
+def part_bytes(label: str, records: Sequence[dict[str, Any]]) -> bytes:
+    """The Parquet bytes of a part holding ``records`` of controller ``label``, in :func:`run_order`."""
+    import pyarrow.parquet as pq
+
+    buffer = io.BytesIO()
+    table = _table(label, sorted(records, key=lambda r: run_order(r["run"])))
+    pq.write_table(table, buffer, compression="zstd")
+    return buffer.getvalue()
+
+
+def read_part(path: Path, label: str) -> list[dict[str, Any]]:
+    """The records of one part of controller ``label``; :class:`EvaluationError` (one line) for a part that
+    is damaged (unreadable, or any column or metadata field not what its records make: every byte that
+    the records depend on is checked), of another format or of another controller."""
+    import pyarrow.parquet as pq
+
+    def refuse(reason: str) -> EvaluationError:
+        return EvaluationError(f"{path}: damaged record part ({reason}); delete it to redo its runs")
+
+    try:
+        table = pq.read_table(path)
+        meta = json.loads((table.schema.metadata or {})[METADATA_KEY])
+        texts = table.column("record").to_pylist()
+        digest = _sha256(texts)
+        records = [json.loads(text) for text in texts]
+        labels = {record["controller"]["label"] for record in records}
+        consistent = table.equals(_table(meta["label"], records))
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as error:  # ArrowInvalid: ValueError
+        raise refuse(" ".join(str(error).split())[:160]) from None
+    if set(meta) != {"format", "label", "runs", "records_sha256"}:
+        raise refuse(f"metadata fields {sorted(meta)}")
+    if len(texts) != meta["runs"] or digest != meta["records_sha256"]:
+        raise refuse("its records do not match their SHA-256")
+    if not consistent or labels - {meta["label"]}:
+        raise refuse("its columns or metadata do not match its records")
+    if meta["format"] != PART_FORMAT:
+        raise EvaluationError(
+            f"{path}: record part of format {meta['format']!r}, this krl reads {PART_FORMAT}"
+        )
+    if meta["label"] != label:
+        raise EvaluationError(
+            f"{path} holds records of controller {meta['label']!r}, not {label!r}; delete it to redo its runs"
+        )
+    return records
+
+
+def read_json_record(path: Path) -> dict[str, Any]:
+    """One record of the older layout (a JSON file per run)."""
+    try:
+        record = json.loads(path.read_text())
+        record["metrics"]["success"]
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise EvaluationError(f"{path}: corrupt result file ({error}); delete it to redo that run") from None
+    return record
+
+
+def json_files(folder: Path) -> list[Path]:
+    """A label folder's records in the older layout, ``<group>/<name>.json``."""
+    return sorted(path for path in folder.glob("*/*.json") if path.is_file())
+
+
+def part_files(folder: Path) -> list[Path]:
+    return sorted(folder.glob(PART_GLOB))
+
+
+def read_runs(folder: Path, label: str | None = None) -> dict[str, StoredRun]:
+    """Every stored record of one controller (``folder`` = ``OUT/<label>``), by run key, in
+    :func:`run_order`: its parts' and its JSON files'. A run stored twice with equal records (a
+    consolidation that was interrupted) is one run; with different records, an :class:`EvaluationError`."""
+    label = folder.name if label is None else label
+    found: dict[str, StoredRun] = {}
+
+    def add(run: Any, record: dict[str, Any], source: Path) -> None:
+        if not isinstance(run, str):
+            raise EvaluationError(f"{source}: a record without its run key; delete it to redo that run")
+        other = found.setdefault(run, StoredRun(record, source))
+        if other.record != record:
+            raise EvaluationError(
+                f"run {label} {run} is stored twice with different records ({other.source}, {source}); "
+                "delete the one to drop"
+            )
+
+    for path in part_files(folder):
+        for record in read_part(path, label):
+            add(record.get("run"), record, path)
+    for path in json_files(folder):
+        record = read_json_record(path)
+        record.setdefault("run", f"{path.parent.name}/{path.stem}")
+        add(f"{path.parent.name}/{path.stem}", record, path)
+    return dict(sorted(found.items(), key=lambda item: run_order(item[0])))
+
+
+def remove_leftovers(folder: Path) -> list[Path]:
+    """Remove the temporary files that an interrupted part write left in ``folder``; returns them."""
+    leftovers = sorted(folder.glob(".part-*.parquet.*.tmp"))
+    for path in leftovers:
+        with contextlib.suppress(FileNotFoundError):
+            path.unlink()
+    return leftovers
+
+
+def write_part(folder: Path, label: str, records: Sequence[dict[str, Any]]) -> Path:
+    """Write ``records`` as the next part of ``folder`` (atomically and durably); returns its path."""
+    taken = [int(path.stem.removeprefix("part-")) for path in part_files(folder) if path.stem[5:].isdigit()]
+    path = folder / PART_NAME.format(index=max(taken, default=-1) + 1)
+    write_atomic(path, part_bytes(label, records), durable=True)
+    return path
+
+
+def consolidate(folder: Path, label: str | None = None, absorb_json: bool = False) -> dict[str, int]:
+    """Merge a controller's parts (with ``absorb_json``, its JSON records too) into one part, read back and
+    compared before the old parts and files are removed, so an interruption loses nothing (a rerun
+    finishes the job). Returns ``{"runs", "parts_merged", "json_removed"}``; nothing is written where
+    there is nothing to merge."""
+    label = folder.name if label is None else label
+    runs = read_runs(folder, label)
+    parts, files = part_files(folder), json_files(folder) if absorb_json else []
+    if not files and len(parts) <= 1:
+        return {"runs": len(runs), "parts_merged": 0, "json_removed": 0}
+    kept = [stored.record for stored in runs.values() if absorb_json or stored.source.suffix == ".parquet"]
+    merged = write_part(folder, label, kept)
+    if read_part(merged, label) != sorted(kept, key=lambda r: run_order(r["run"])):
+        raise EvaluationError(f"{merged}: the merged part does not read back as written; nothing was removed")
+    for path in [*parts, *files]:
+        path.unlink()
+    for group in {path.parent for path in files}:
+        with contextlib.suppress(OSError):  # a folder that still holds something the user put there
+            group.rmdir()
+    if merged.name != PART_NAME.format(index=0) and not (folder / PART_NAME.format(index=0)).exists():
+        merged = merged.rename(folder / PART_NAME.format(index=0))
+    return {"runs": len(runs), "parts_merged": len(parts), "json_removed": len(files)}
+
+
+@dataclass
+class RecordWriter:
+    """Buffers finished records and writes them as parts of ``OUT/<label>/``: once
+    :data:`FLUSH_RECORDS` wait or the oldest has waited :data:`FLUSH_SECONDS`, and on :meth:`flush`."""
+
+    out: Path
+    flush_records: int = FLUSH_RECORDS
+    flush_seconds: float = FLUSH_SECONDS
+    waiting: dict[str, list[dict[str, Any]]] = field(default_factory=dict)
+    since: float | None = None
+    written: set[str] = field(default_factory=set)
+    """Labels this writer wrote a part for."""
+
+    def add(self, label: str, record: dict[str, Any]) -> None:
+        self.waiting.setdefault(label, []).append(record)
+        self.since = time.monotonic() if self.since is None else self.since
+        count = sum(len(records) for records in self.waiting.values())
+        if count >= self.flush_records or time.monotonic() - self.since >= self.flush_seconds:
+            self.flush()
+
+    def flush(self) -> None:
+        """Write every waiting record, one part per label."""
+        for label, records in self.waiting.items():
+            write_part(self.out / label, label, records)
+            self.written.add(label)
+        self.waiting.clear()
+        self.since = None
+
+    def consolidate(self) -> None:
+        """Merge each written label's parts into one (:func:`consolidate`)."""
+        for label in sorted(self.written):
+            consolidate(self.out / label, label)
+
+
+def labels_in(results: Path) -> list[str]:
+    """The controller labels of a results folder: its subfolders."""
+    return sorted(path.name for path in results.iterdir() if path.is_dir())
+
+
+def convert(results: Path, labels: Iterable[str] | None = None) -> dict[str, dict[str, int]]:
+    """Rewrite an evaluation folder of the older layout as parts, one per controller (:func:`consolidate`
+    absorbing the JSON files); returns what each label held and what was merged and removed."""
+    if not results.is_dir():
+        raise EvaluationError(f"no results folder {str(results)!r}")
+    labels = list(labels or labels_in(results))
+    for label in labels:
+        if not (results / label).is_dir():
+            raise EvaluationError(f"no results for controller {label!r} in {str(results)!r}")
+    return {label: consolidate(results / label, label, absorb_json=True) for label in labels}
