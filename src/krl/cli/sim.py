@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from krl.cli.common import CliError, add_terrain_arguments, build_sim, default_of, emit, given
+from krl.cli.common import CliError, add_terrain_arguments, build_sim, default_of, emit, given, parse_ints
 
 
 def _settle(sim, seconds: float) -> None:
@@ -96,6 +96,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
         from krl.bench.mpc import bench_mpc
 
         result = bench_mpc(**given(seconds=args.seconds))
+    elif args.target == "evaluate":
+        from krl.bench.evaluate import bench_evaluate
+
+        seeds = None if args.seeds is None else tuple(parse_ints(args.seeds, "--seeds"))
+        options = given(controller=args.controller, courses=args.course, seeds=seeds, repeats=args.repeats)
+        result = bench_evaluate(**options, **given(push_attempts=args.push_attempts))
     elif args.target == "agent":
         from krl.bench.agent import bench_agent
 
@@ -155,12 +161,15 @@ def _add_bench(subparsers) -> None:
     """``krl bench`` (defaults: the benchmark functions' own)."""
     from krl.agent.config import DEFAULT_NUM_ENVS
     from krl.bench.agent import bench_agent
+    from krl.bench.evaluate import bench_evaluate
     from krl.bench.mpc import bench_mpc
     from krl.bench.sim import bench_sim
     from krl.bench.terrains import bench_terrains
 
     p = subparsers.add_parser("bench", help="run a benchmark and print its figures")
-    p.add_argument("target", choices=["sim", "terrains", "mpc", "agent"], help="what to benchmark")
+    p.add_argument(
+        "target", choices=["sim", "terrains", "mpc", "agent", "evaluate"], help="what to benchmark"
+    )
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument(
         "--steps",
@@ -173,7 +182,8 @@ def _add_bench(subparsers) -> None:
         "--repeats",
         type=int,
         help=f"sim: alternating timed loops per variant (default {default_of(bench_sim, 'repeats')}); "
-        f"terrains: builds and timed loops per terrain (default {default_of(bench_terrains, 'repeats')})",
+        f"terrains: builds and timed loops per terrain (default {default_of(bench_terrains, 'repeats')}); "
+        f"evaluate: timed evaluations (default {default_of(bench_evaluate, 'repeats')})",
     )
     p.add_argument(
         "--terrain",
@@ -201,5 +211,26 @@ def _add_bench(subparsers) -> None:
         "--config",
         help="agent: an agent config file (.json or .toml, such as a run folder's config.json; "
         "default: the thesis's agent-rp)",
+    )
+    p.add_argument(
+        "--controller",
+        help="evaluate: the controller, as krl evaluate spells it "
+        f"(default {default_of(bench_evaluate, 'controller')})",
+    )
+    p.add_argument(
+        "--course",
+        action="append",
+        help="evaluate: a course to walk (repeat; default "
+        f"{', '.join(default_of(bench_evaluate, 'courses'))})",
+    )
+    p.add_argument(
+        "--seeds",
+        help=f"evaluate: training seeds of a seed group (default {default_of(bench_evaluate, 'seeds')[0]})",
+    )
+    p.add_argument(
+        "--push-attempts",
+        type=int,
+        help="evaluate: push sweep attempts per force, on every core "
+        f"(default {default_of(bench_evaluate, 'push_attempts')})",
     )
     p.set_defaults(func=cmd_bench)

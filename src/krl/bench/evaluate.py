@@ -1,0 +1,113 @@
+"""``krl bench evaluate``: ``krl evaluate``'s throughput against bare MuJoCo on the same terrains.
+
+Measured in one run:
+
+* ``eval_steps_per_s``: control steps per second of :func:`krl.eval.evaluate.execute` in one process (one
+  core, ``workers=1``) walking ``controller`` on ``courses`` with ``seeds``: controller, simulation,
+  scoring and the records written, everything a run costs but the process start.
+* ``bare_steps_per_s``: ``mj_step(nstep=5)`` (one 200 Hz control step) of each course's model with
+  constant controls holding the standing pose, for as many control steps as the evaluation walked on that
+  course: the floor of the same physics on one core.
+* ``eval_ratio`` = eval / bare (target >= :data:`TARGET_RATIO`).
+* ``push_sweep_seconds``: wall time of a push sweep of ``push_attempts`` attempts per force (every
+  force of the default sweep; none with 0) on every core: what a sweep costs on this machine, to compare
+  engines side by side in one session.
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import mujoco
+from threadpoolctl import threadpool_limits
+
+from krl.robots.a1.constants import KP, STANDING_JOINT_ANGLES
+from krl.util.timing import SUBSTEPS
+
+TARGET_RATIO = 0.6
+"""Required evaluation/bare ratio per core (issue 46)."""
+
+
+def _bare_seconds(built, steps: int) -> float:
+    """Seconds ``steps`` bare control steps of a course's model (:class:`krl.sim.model.BuiltModel`) take,
+    from the robot's standing reset state."""
+    from krl.sim.robot import A1Sim
+
+    sim = A1Sim(built)
+    model, data = sim.model, mujoco.MjData(sim.model)
+    mujoco.mj_copyData(data, model, sim.data)
+    data.ctrl[:12] = KP * STANDING_JOINT_ANGLES
+    start = time.perf_counter()
+    for _ in range(steps):
+        mujoco.mj_step(model, data, nstep=SUBSTEPS)
+    return time.perf_counter() - start
+
+
+def _evaluation(spec, courses, seeds, folder: Path) -> tuple[float, dict[str, int]]:
+    """Wall seconds of one ``execute`` of every course run in one process, and its steps per course."""
+    from krl.eval.evaluate import course_tasks, execute
+
+    tasks = course_tasks(spec, courses, seeds)
+    start = time.perf_counter()
+    records = execute(tasks, folder, workers=1)
+    seconds = time.perf_counter() - start
+    steps: dict[str, int] = {}
+    for task, record in zip(tasks, records, strict=True):
+        steps[task.course.name] = steps.get(task.course.name, 0) + record["metrics"]["steps"]
+    return seconds, steps
+
+
+def bench_evaluate(
+    controller: str = "agent",
+    courses: Sequence[str] = ("flat", "stairs"),
+    seeds: Sequence[int] = (150,),
+    repeats: int = 1,
+    push_attempts: int = 2,
+) -> dict:
+    """Run the measurements (module docstring); medians over ``repeats`` alternating loops of the
+    evaluation and its bare counterpart."""
+    from krl.eval.controllers import parse_controller
+    from krl.eval.courses import courses_named
+    from krl.eval.episodes import PushSweep
+    from krl.eval.evaluate import execute, push_tasks
+
+    spec = parse_controller(controller)
+    loaded = courses_named(list(courses))
+    models = {course.name: course.build() for course in loaded}
+    eval_rates, bare_rates, walked = [], [], {}
+    with threadpool_limits(1), tempfile.TemporaryDirectory() as folder:
+        for repeat in range(repeats):
+            seconds, walked = _evaluation(spec, loaded, list(seeds), Path(folder) / f"courses{repeat}")
+            total = sum(walked.values())
+            eval_rates.append(total / seconds)
+            bare = sum(_bare_seconds(models[name], steps) for name, steps in walked.items())
+            bare_rates.append(total / bare)
+        cores = os.cpu_count() or 1
+        tasks = push_tasks(spec, PushSweep(attempts=push_attempts), list(seeds)) if push_attempts else []
+        start = time.perf_counter()
+        pushes = execute(tasks, Path(folder) / "push", workers=cores)
+        sweep_seconds = time.perf_counter() - start
+    eval_rate, bare_rate = statistics.median(eval_rates), statistics.median(bare_rates)
+    return {
+        "benchmark": "evaluate",
+        "controller": spec.label,
+        "courses": [course.name for course in loaded],
+        "seeds": list(seeds),
+        "control_steps": walked,
+        "eval_steps_per_s": round(eval_rate, 1),
+        "bare_steps_per_s": round(bare_rate, 1),
+        "eval_ratio": round(eval_rate / bare_rate, 3),
+        "target_ratio": TARGET_RATIO,
+        "meets_target": eval_rate / bare_rate >= TARGET_RATIO,
+        "cores": cores,
+        "push_runs": len(tasks),
+        "push_control_steps": sum(record["metrics"]["steps"] for record in pushes),
+        "push_sweep_seconds": round(sweep_seconds, 2) if tasks else None,
+        "repeats": repeats,
+        "mujoco": mujoco.__version__,
+    }
