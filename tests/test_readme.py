@@ -48,6 +48,7 @@ SMOKE: dict[str, tuple[str, str | None]] = {
     "krl view --controller agent --course stairs": ("--duration 0.5", WINDOW),
     "krl bench sim --json": ("--steps 20 --repeats 1", None),
     "krl bench mpc --json": ("--seconds 0.5", None),
+    "krl bench evaluate --json": ("--controller kernel --course mine.toml --push-attempts 0", None),
     # the tiny agent's PPO: its training measurement is three 128-step rollouts (the default's are 4000)
     "krl bench agent --json": (
         "--num-envs 1 --steps 10 --repeats 1 --train-steps 1 --config agent-tiny.json",
@@ -121,6 +122,7 @@ SMOKE: dict[str, tuple[str, str | None]] = {
         None,
     ),
     "krl report": ("", None),
+    "krl convert-results runs/eval": ("", None),
     "krl demo --controller agent:gait-ground": ("--course mine.toml --workers 1 --no-video --quiet", None),
     "krl evaluate --controller agent --controller expert --out evaluations/mine": (
         "--course mine.toml --seeds 150 --workers 1 --quiet",
