@@ -122,6 +122,7 @@ SMOKE: dict[str, tuple[str, str | None]] = {
         None,
     ),
     "krl report": ("", None),
+    "krl agent digest --json": ("--envs 1 --steps 5", None),
     "krl convert-results runs/eval": ("", None),
     "krl demo --controller agent:gait-ground": ("--course mine.toml --workers 1 --no-video --quiet", None),
     "krl evaluate --controller agent --controller expert --out evaluations/mine": (

@@ -259,6 +259,7 @@ def register(subparsers) -> None:
     for add in (_add_train, _add_run, _add_info, _add_curves, _add_stairs, _add_push, _add_heldout):
         add(group)
     _add_rhythm(group)
+    _add_digest(group)
 
 
 def _add_train(group) -> None:
@@ -480,3 +481,38 @@ def _add_rhythm(group) -> None:
     add_field_option(p, "--seconds", clock_rate_walks, type=float, help="walk length [s]")
     _add_output(p)
     p.set_defaults(func=run_rhythm)
+
+
+def run_digest(args: argparse.Namespace) -> int:
+    from krl.agent.config import AgentConfig
+    from krl.analysis.agent.transitions import transition_digest
+
+    for name, value in (("--envs", args.envs), ("--steps", args.steps)):
+        if value is not None and value < 1:
+            raise CliError(f"{name} must be >= 1, got {value}")
+    configs = {path: AgentConfig.load(path) for path in args.config or ()} or {"agent-rp": AgentConfig()}
+    options = given(num_envs=args.envs, steps=args.steps, seed=args.seed)
+    emit(
+        {"digests": [{"config": name, **transition_digest(c, **options)} for name, c in configs.items()]},
+        args.json,
+    )
+    return 0
+
+
+def _add_digest(group) -> None:
+    """``krl agent digest`` (defaults: :func:`krl.analysis.agent.transitions.transition_digest`)."""
+    from krl.analysis.agent.transitions import transition_digest
+
+    p = group.add_parser(
+        "digest",
+        help="SHA-256 of the residual env's transitions under random actions: compare before and after a "
+        "change to the engine, on one machine",
+    )
+    p.add_argument(
+        "--config", action="append", help="an agent config file (repeat; default: the thesis's agent-rp)"
+    )
+    add_field_option(p, "--envs", transition_digest, "num_envs", type=int, help="robots")
+    add_field_option(p, "--steps", transition_digest, type=int, help="control steps")
+    add_field_option(p, "--seed", transition_digest, type=int, help="seed of robot 0 and of the actions")
+    _add_output(p)
+    p.set_defaults(func=run_digest)
