@@ -245,6 +245,19 @@ def run_identity(task: Task) -> str:
     return json.dumps([identity, task.key, task.video], sort_keys=True)
 
 
+def _stored_records(out: Path, planned: dict[tuple[str, str], Task]) -> dict[tuple[str, str], dict[str, Any]]:
+    """The stored record of each planned ``(label, run key)`` that has one (not one whose video is
+    missing), each checked against its task."""
+    records = {}
+    for label in dict.fromkeys(label for label, _ in planned):
+        runs = read_runs(out / label, label) if (out / label).is_dir() else {}
+        for key, found in runs.items():
+            task = planned.get((label, key))
+            if task is not None and not (task.video and not Path(task.video).exists()):
+                records[label, key] = check_record(found.record, task, found.source)
+    return records
+
+
 def execute(
     tasks: Sequence[Task],
     out: Path,
@@ -277,15 +290,8 @@ def execute(
                 f"differ in {_differences(other.identity(), task.identity())}); give them different names"
             )
     keys = {where: run_identity(task) for where, task in planned.items()}
-    records: dict[tuple[str, str], dict[str, Any]] = {}
-    stored: dict[str, dict[str, Any]] = {}  # a stored record of each run identity that has one
-    for label in dict.fromkeys(label for label, _ in planned):
-        runs = read_runs(out / label, label) if (out / label).is_dir() else {}
-        for key, found in runs.items():
-            task = planned.get((label, key))
-            if task is not None and not (task.video and not Path(task.video).exists()):
-                where = (label, key)
-                records[where] = stored[keys[where]] = check_record(found.record, task, found.source)
+    records = _stored_records(out, planned)
+    stored = {keys[where]: record for where, record in records.items()}  # by run identity
     served: dict[str, list[Task]] = {}  # the tasks without a record, by run identity
     for where, task in planned.items():
         if where not in records:
