@@ -150,3 +150,16 @@ def test_standing_inertia_constant_matches_the_model(flat):
         inertia += rot @ np.diag(m.body_inertia[body]) @ rot.T
         inertia += m.body_mass[body] * (offset @ offset * np.eye(3) - np.outer(offset, offset))
     np.testing.assert_allclose(STANDING_INERTIA, inertia, atol=1e-4)
+
+
+def test_set_state_is_the_state_the_next_step_starts_from(flat):
+    sim = A1Sim(flat)
+    walked = A1Sim(flat)
+    for _ in range(20):
+        walked.step(STANDING_JOINT_ANGLES + 0.05)
+    state = sim.set_state(walked.data.qpos[:19], walked.data.qvel[:18])
+    np.testing.assert_array_equal(state.base_pos, walked.state.base_pos)
+    np.testing.assert_array_equal(state.joint_vel, walked.state.joint_vel)
+    assert sim.step_count == 0  # the time stays
+    with pytest.raises(ValueError, match=r"qpos and qvel must have shapes \(19,\) and \(18,\)"):
+        sim.set_state(np.zeros(18), np.zeros(18))

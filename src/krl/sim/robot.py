@@ -223,6 +223,21 @@ class A1Sim:
         self._state = self._read_state()
         return self._state
 
+    def set_state(self, qpos: np.ndarray, qvel: np.ndarray) -> RobotState:
+        """Put the robot in the state ``qpos`` (the free joint, then the 12 joints; shape (19,)) and
+        ``qvel`` (shape (18,)), keeping the time, gains and pending push; returns its readout (after
+        ``mj_forward``). The next :meth:`step` starts from it."""
+        qpos, qvel = np.asarray(qpos, dtype=float), np.asarray(qvel, dtype=float)
+        if qpos.shape != (19,) or qvel.shape != (18,):
+            raise ValueError(
+                f"qpos and qvel must have shapes (19,) and (18,), got {qpos.shape}, {qvel.shape}"
+            )
+        self._qpos[:] = qpos
+        self._qvel[:] = qvel
+        mujoco.mj_forward(self.model, self.data)
+        self._state = self._read_state()
+        return self._state
+
     # --- stepping ----------------------------------------------------------------------------------
 
     @property

@@ -32,18 +32,16 @@ import pytest
 
 from krl.agent.symmetry import LEG_MIRROR
 from krl.analysis.agent.mirror import (
-    REFLECTION,
     mirror_feet,
     mirror_joints,
     mirror_qpos,
     mirror_qvel,
-    model_asymmetries,
     pair_figures,
     physics_mirror_errors,
     set_state,
-    symmetric_trunk_model,
     walk_pair,
 )
+from krl.analysis.agent.mirror_model import REFLECTION, model_asymmetries, symmetric_trunk_model
 from krl.control.kinematics import inverse_kinematics
 from krl.kernel.registry import load_model
 from krl.robots.a1.constants import STANDING_HEIGHT, STANDING_JOINT_ANGLES
