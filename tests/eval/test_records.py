@@ -39,8 +39,8 @@ def test_records_go_to_one_part_per_controller_and_read_back_equal(tmp_path, tin
 def test_batches_become_parts_and_are_merged_into_one_at_the_end(tmp_path, tiny, monkeypatch):
     out = tmp_path / "out"
     parts = []
-    real = records.write_part
-    monkeypatch.setattr(records, "write_part", lambda *args: parts.append(real(*args)) or parts[-1])
+    real = records._next_part
+    monkeypatch.setattr(records, "_next_part", lambda *args: parts.append(real(*args)) or parts[-1])
     monkeypatch.setattr(evaluate, "RecordWriter", functools.partial(records.RecordWriter, flush_records=2))
     evaluate.execute(tasks_of(tiny), out)
     assert len(parts) == 4  # 2 + 2 + 1 records, then the merged part
@@ -192,3 +192,30 @@ def test_convert_names_a_missing_folder_or_controller_in_one_line(tmp_path, caps
     assert main(["convert-results", str(tmp_path), "--controller", "kernel-base"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no results for controller 'kernel-base'" in err
+
+
+def _write_parts(folder, first, count):
+    """Write ``count`` parts of one record each, then merge (in a process of its own)."""
+    controller = {"label": "kernel-base"}
+    for index in range(first, first + count):
+        record = {"controller": controller, "run": f"tiny/start{index}", "metrics": {"success": True}}
+        records.write_part(folder, "kernel-base", [record])
+    records.consolidate(folder)
+
+
+def test_two_writers_of_one_controller_keep_every_record(tmp_path):
+    import multiprocessing
+
+    folder = tmp_path / "kernel-base"
+    context = multiprocessing.get_context("fork")
+    writers = [context.Process(target=_write_parts, args=(folder, first, 40)) for first in (0, 1000)]
+    for writer in writers:
+        writer.start()
+    for writer in writers:
+        writer.join(timeout=60)
+        assert writer.exitcode == 0
+    runs = records.read_runs(folder)
+    assert len(runs) == 80
+    records.consolidate(folder)
+    assert [p.name for p in records.part_files(folder)] == ["part-00000.parquet"]
+    assert records.read_runs(folder) == runs

@@ -22,11 +22,13 @@ reading it back before anything is removed.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import hashlib
 import io
 import json
+import os
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -199,21 +201,42 @@ def read_runs(folder: Path, label: str | None = None) -> dict[str, StoredRun]:
     return dict(sorted(found.items(), key=lambda item: run_order(item[0])))
 
 
+@contextlib.contextmanager
+def _locked(folder: Path) -> Iterator[None]:
+    """Hold an exclusive lock on ``folder`` (``flock`` on the folder itself, released when the process
+    dies): one writer at a time picks part names, removes leftovers and merges, so two evaluations of one
+    controller into one folder cannot overwrite or drop each other's parts. Not re-entrant."""
+    folder.mkdir(parents=True, exist_ok=True)
+    descriptor = os.open(folder, os.O_RDONLY)
+    try:
+        fcntl.flock(descriptor, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(descriptor)
+
+
 def remove_leftovers(folder: Path) -> list[Path]:
     """Remove the temporary files that an interrupted part write left in ``folder``; returns them."""
-    leftovers = sorted(folder.glob(".part-*.parquet.*.tmp"))
-    for path in leftovers:
-        with contextlib.suppress(FileNotFoundError):
-            path.unlink()
+    with _locked(folder):
+        leftovers = sorted(folder.glob(".part-*.parquet.*.tmp"))
+        for path in leftovers:
+            with contextlib.suppress(FileNotFoundError):
+                path.unlink()
     return leftovers
 
 
-def write_part(folder: Path, label: str, records: Sequence[dict[str, Any]]) -> Path:
-    """Write ``records`` as the next part of ``folder`` (atomically and durably); returns its path."""
+def _next_part(folder: Path, label: str, records: Sequence[dict[str, Any]]) -> Path:
+    """:func:`write_part` for a caller holding the folder's lock."""
     taken = [int(path.stem.removeprefix("part-")) for path in part_files(folder) if path.stem[5:].isdigit()]
     path = folder / PART_NAME.format(index=max(taken, default=-1) + 1)
     write_atomic(path, part_bytes(label, records), durable=True)
     return path
+
+
+def write_part(folder: Path, label: str, records: Sequence[dict[str, Any]]) -> Path:
+    """Write ``records`` as the next part of ``folder`` (atomically and durably); returns its path."""
+    with _locked(folder):
+        return _next_part(folder, label, records)
 
 
 def consolidate(folder: Path, label: str | None = None, absorb_json: bool = False) -> dict[str, int]:
@@ -222,12 +245,17 @@ def consolidate(folder: Path, label: str | None = None, absorb_json: bool = Fals
     finishes the job). Returns ``{"runs", "parts_merged", "json_removed"}``; nothing is written where
     there is nothing to merge."""
     label = folder.name if label is None else label
+    with _locked(folder):
+        return _consolidate(folder, label, absorb_json)
+
+
+def _consolidate(folder: Path, label: str, absorb_json: bool) -> dict[str, int]:
     runs = read_runs(folder, label)
     parts, files = part_files(folder), json_files(folder) if absorb_json else []
     if not files and len(parts) <= 1:
         return {"runs": len(runs), "parts_merged": 0, "json_removed": 0}
     kept = [stored.record for stored in runs.values() if absorb_json or stored.source.suffix == ".parquet"]
-    merged = write_part(folder, label, kept)
+    merged = _next_part(folder, label, kept)
     if read_part(merged, label) != sorted(kept, key=lambda r: run_order(r["run"])):
         raise EvaluationError(f"{merged}: the merged part does not read back as written; nothing was removed")
     for path in [*parts, *files]:
