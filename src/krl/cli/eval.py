@@ -263,8 +263,18 @@ def run_convert(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_compare(args: argparse.Namespace) -> int:
+    """``krl compare-results``: exit status 0 when the folders hold equal records, 1 when not (as diff)."""
+    from krl.eval.compare import compare_results
+
+    comparison = compare_results(Path(args.first), Path(args.second), args.controller)
+    emit(comparison, args.json)
+    return 0 if comparison["identical"] else 1
+
+
 def register(subparsers) -> None:
-    """Add ``krl evaluate``, ``krl report`` and ``krl convert-results`` to the main parser's subcommands."""
+    """Add ``krl evaluate``, ``krl report``, ``krl convert-results`` and ``krl compare-results`` to the main
+    parser's subcommands."""
     p = subparsers.add_parser(
         "evaluate",
         help="score controllers on the courses, the push sweep or the friction sweep (resumable)",
@@ -287,3 +297,13 @@ def register(subparsers) -> None:
     p.add_argument("--controller", action="append", metavar="LABEL", help="only these (default: all found)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(func=run_convert)
+    p = subparsers.add_parser(
+        "compare-results",
+        help="two krl evaluate folders run by run: runs only one holds, equal records, the largest "
+        "difference of each metric and the runs whose outcome moved (exit status 1 when they differ)",
+    )
+    p.add_argument("first", help="a krl evaluate results folder")
+    p.add_argument("second", help="another")
+    p.add_argument("--controller", action="append", metavar="LABEL", help="only these (default: all found)")
+    p.add_argument("--json", action="store_true", help="print the comparison as JSON")
+    p.set_defaults(func=run_compare)

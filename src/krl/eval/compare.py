@@ -1,0 +1,125 @@
+"""``krl compare-results``: the records of two ``krl evaluate`` folders, run by run.
+
+A change to the episode engine must keep every record (issue 46): every metric equal, or where the order
+of floating-point operations had to change, the differences stated and shown to move no outcome. This
+compares two results folders (either layout, :mod:`krl.eval.records`) controller by controller and run by
+run: the runs only one folder holds, the runs whose records are equal (but for :data:`IGNORED`, which
+differ between any two runs of one task), and for the others the largest absolute difference of each
+numeric field, the other fields that changed and the runs whose outcome (:data:`OUTCOMES`) moved.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from krl.eval.records import EvaluationError, labels_in, read_runs
+
+IGNORED: tuple[str, ...] = ("metrics.wall_seconds",)
+"""Fields that differ between two runs of the same task (wall-clock time)."""
+
+OUTCOMES: tuple[str, ...] = (
+    "metrics.success",
+    "metrics.fell",
+    "metrics.timed_out",
+    "metrics.error",
+    "metrics.ended",
+    "metrics.targets_reached",
+)
+"""Fields whose change is a changed result, not a rounding difference."""
+
+EXAMPLES = 10
+"""Differing runs listed in full."""
+
+
+def flatten(value: Any, prefix: str = "") -> dict[str, Any]:
+    """Nested dicts and lists as one dict with dotted keys (``metrics.push.force.0``)."""
+    if isinstance(value, dict):
+        items = value.items()
+    elif isinstance(value, list):
+        items = ((str(index), item) for index, item in enumerate(value))
+    else:
+        return {prefix[:-1]: value}
+    flat: dict[str, Any] = {}
+    for key, item in items:
+        flat.update(flatten(item, f"{prefix}{key}."))
+    return flat
+
+
+def _difference(a: Any, b: Any) -> float | None:
+    """``|a - b|`` for two numbers (0 for two NaNs), None when either is not a number."""
+    numbers = (int, float)
+    if isinstance(a, bool) or isinstance(b, bool) or not (isinstance(a, numbers) and isinstance(b, numbers)):
+        return None
+    if math.isnan(a) and math.isnan(b):
+        return 0.0
+    return abs(a - b)
+
+
+def compare_records(a: dict[str, Any], b: dict[str, Any], ignored: Sequence[str] = IGNORED) -> dict[str, Any]:
+    """The fields in which two records of one run differ: ``{field: [a's, b's]}`` (missing: None)."""
+    flat_a, flat_b = flatten(a), flatten(b)
+    keys = [key for key in dict.fromkeys([*flat_a, *flat_b]) if key not in ignored]
+    differing = {}
+    for key in keys:
+        x, y = flat_a.get(key), flat_b.get(key)
+        if x != y and _difference(x, y) != 0.0:
+            differing[key] = [x, y]
+    return differing
+
+
+def compare_results(
+    first: Path, second: Path, labels: Sequence[str] | None = None, ignored: Sequence[str] = IGNORED
+) -> dict[str, Any]:
+    """Compare two results folders (module docstring); ``labels``: only these controllers (default: every
+    one either folder holds). :class:`EvaluationError` for a missing folder or controller."""
+    for folder in (first, second):
+        if not folder.is_dir():
+            raise EvaluationError(f"no results folder {str(folder)!r}")
+    names = list(labels or dict.fromkeys([*labels_in(first), *labels_in(second)]))
+    only: dict[str, list[str]] = {"first": [], "second": []}
+    equal = different = 0
+    largest: dict[str, float] = {}  # numeric fields: the largest absolute difference
+    changed: dict[str, None] = {}  # other fields that differ somewhere (booleans, strings, missing)
+    moved: list[str] = []
+    examples: list[dict[str, Any]] = []
+    for label in names:
+        runs = []
+        for folder in (first, second):
+            if labels and not (folder / label).is_dir():
+                raise EvaluationError(f"no results for controller {label!r} in {str(folder)!r}")
+            runs.append(read_runs(folder / label, label) if (folder / label).is_dir() else {})
+        only["first"] += [f"{label} {run}" for run in runs[0] if run not in runs[1]]
+        only["second"] += [f"{label} {run}" for run in runs[1] if run not in runs[0]]
+        for run in (run for run in runs[0] if run in runs[1]):
+            differing = compare_records(runs[0][run].record, runs[1][run].record, ignored)
+            if not differing:
+                equal += 1
+                continue
+            different += 1
+            for key, (x, y) in differing.items():
+                gap = _difference(x, y)
+                if gap is None:
+                    changed.setdefault(key, None)
+                else:
+                    largest[key] = max(largest.get(key, 0.0), gap)
+            if any(key in differing for key in OUTCOMES):
+                moved.append(f"{label} {run}")
+            if len(examples) < EXAMPLES:
+                examples.append({"controller": label, "run": run, "fields": differing})
+    return {
+        "first": str(first),
+        "second": str(second),
+        "controllers": names,
+        "only_first": only["first"],
+        "only_second": only["second"],
+        "equal": equal,
+        "different": different,
+        "outcomes_moved": moved,
+        "largest_difference": dict(sorted(largest.items())),
+        "changed_fields": sorted(changed),
+        "examples": examples,
+        "identical": not (only["first"] or only["second"] or largest or changed),
+    }
