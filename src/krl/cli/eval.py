@@ -252,10 +252,14 @@ def run_report(args: argparse.Namespace) -> int:
 
 def run_convert(args: argparse.Namespace) -> int:
     """``krl convert-results``: a results folder of per-run JSON files as one Parquet part per controller."""
-    from krl.eval.records import convert
+    from krl.eval.records import convert, labels_in
+    from krl.util.progress import progress_bar
 
     results = Path(args.results)
-    converted = convert(results, args.controller)
+    total = len(args.controller or (labels_in(results) if results.is_dir() else ()))
+    with progress_bar(not args.quiet, unit="controllers", status=True) as bar:
+        task = bar.add_task("convert", total=total, status="")
+        converted = convert(results, args.controller, lambda label: bar.update(task, advance=1, status=label))
     runs = sum(entry["runs"] for entry in converted.values())
     removed = sum(entry["json_removed"] for entry in converted.values())
     summary = {"results": str(results), "runs": runs, "json_removed": removed, "controllers": converted}
@@ -295,6 +299,7 @@ def register(subparsers) -> None:
     )
     p.add_argument("results", help="the krl evaluate results folder")
     p.add_argument("--controller", action="append", metavar="LABEL", help="only these (default: all found)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(func=run_convert)
     p = subparsers.add_parser(

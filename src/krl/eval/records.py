@@ -28,7 +28,7 @@ import io
 import json
 import os
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -307,13 +307,21 @@ def labels_in(results: Path) -> list[str]:
     return sorted(path.name for path in results.iterdir() if path.is_dir())
 
 
-def convert(results: Path, labels: Iterable[str] | None = None) -> dict[str, dict[str, int]]:
+def convert(
+    results: Path, labels: Iterable[str] | None = None, on_done: Callable[[str], None] | None = None
+) -> dict[str, dict[str, int]]:
     """Rewrite an evaluation folder of the older layout as parts, one per controller (:func:`consolidate`
-    absorbing the JSON files); returns what each label held and what was merged and removed."""
+    absorbing the JSON files); returns what each label held and what was merged and removed.
+    ``on_done(label)`` is called as each controller is done."""
     if not results.is_dir():
         raise EvaluationError(f"no results folder {str(results)!r}")
     labels = list(labels or labels_in(results))
     for label in labels:
         if not (results / label).is_dir():
             raise EvaluationError(f"no results for controller {label!r} in {str(results)!r}")
-    return {label: consolidate(results / label, label, absorb_json=True) for label in labels}
+    converted = {}
+    for label in labels:
+        converted[label] = consolidate(results / label, label, absorb_json=True)
+        if on_done is not None:
+            on_done(label)
+    return converted
