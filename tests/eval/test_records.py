@@ -148,7 +148,15 @@ def test_a_run_stored_twice_is_one_run_when_equal_and_refused_when_not(tmp_path,
     folder = out / "kernel-base"
     runs = records.read_runs(folder)
     copy = records.write_part(folder, "kernel-base", [runs["tiny/start0"].record])  # a merge cut short
-    assert records.read_runs(folder) == runs
+    assert {run: stored.record for run, stored in records.read_runs(folder).items()} == {
+        run: stored.record for run, stored in runs.items()
+    }
+    again = {
+        **runs["tiny/start0"].record,
+        "metrics": {**runs["tiny/start0"].record["metrics"], "wall_seconds": 9},
+    }
+    copy.write_bytes(records.part_bytes("kernel-base", [again]))  # the run redone: the newer record is kept
+    assert records.read_runs(folder)["tiny/start0"] == records.StoredRun(again, copy)
     changed = {**runs["tiny/start0"].record, "metrics": {**runs["tiny/start0"].record["metrics"], "steps": 1}}
     copy.write_bytes(records.part_bytes("kernel-base", [changed]))
     with pytest.raises(records.EvaluationError, match="run kernel-base tiny/start0 is stored twice"):
@@ -219,3 +227,28 @@ def test_two_writers_of_one_controller_keep_every_record(tmp_path):
     records.consolidate(folder)
     assert [p.name for p in records.part_files(folder)] == ["part-00000.parquet"]
     assert records.read_runs(folder) == runs
+
+
+def test_a_run_redone_for_its_missing_video_replaces_its_record(tmp_path, tiny):
+    from krl.sim.render import FrameRenderer, RenderError
+
+    try:
+        FrameRenderer(load_course(tiny).build().model, 32, 32).close()
+    except RenderError as error:
+        pytest.skip(f"offscreen rendering unavailable: {error}")
+    spec = parse_controller("kernel")
+    tasks = evaluate.course_tasks(spec, [load_course(tiny)], video_dir=tmp_path / "v")
+    out = tmp_path / "out"
+    first = evaluate.execute(tasks, out)
+    (video,) = (tmp_path / "v").rglob("*.mp4")
+    video.unlink()
+    as_json_layout(out)  # the older layout too: its file goes once a part holds the newer record
+    how = []
+    second = evaluate.execute(tasks, out, on_done=lambda task, record, done: how.append(done))
+    assert how == ["ran"] and video.exists()
+    assert [p.name for p in (out / "kernel-base").rglob("*.*")] == ["part-00000.parquet"]
+    assert records.read_runs(out / "kernel-base")["tiny/start0"].record == second[0]
+    assert (
+        evaluate.execute(tasks, out) == second
+        and first[0]["metrics"]["steps"] == second[0]["metrics"]["steps"]
+    )

@@ -174,30 +174,37 @@ def part_files(folder: Path) -> list[Path]:
     return sorted(folder.glob(PART_GLOB))
 
 
+def _without_wall_time(record: dict[str, Any]) -> dict[str, Any]:
+    return {**record, "metrics": {k: v for k, v in record["metrics"].items() if k != "wall_seconds"}}
+
+
 def read_runs(folder: Path, label: str | None = None) -> dict[str, StoredRun]:
     """Every stored record of one controller (``folder`` = ``OUT/<label>``), by run key, in
-    :func:`run_order`: its parts' and its JSON files'. A run stored twice with equal records (a
-    consolidation that was interrupted) is one run; with different records, an :class:`EvaluationError`."""
+    :func:`run_order`: its JSON files' and its parts', oldest first (JSON files, then parts by number).
+    A run stored twice is one run, the newer record kept, where the two are equal but for the wall time
+    (a merge cut short; a run redone for its missing video: every run is seeded by its key); with any
+    other difference, an :class:`EvaluationError`."""
     label = folder.name if label is None else label
     found: dict[str, StoredRun] = {}
 
     def add(run: Any, record: dict[str, Any], source: Path) -> None:
         if not isinstance(run, str):
             raise EvaluationError(f"{source}: a record without its run key; delete it to redo that run")
-        other = found.setdefault(run, StoredRun(record, source))
-        if other.record != record:
+        other = found.get(run)
+        if other is not None and _without_wall_time(other.record) != _without_wall_time(record):
             raise EvaluationError(
                 f"run {label} {run} is stored twice with different records ({other.source}, {source}); "
                 "delete the one to drop"
             )
+        found[run] = StoredRun(record, source)
 
-    for path in part_files(folder):
-        for record in read_part(path, label):
-            add(record.get("run"), record, path)
     for path in json_files(folder):
         record = read_json_record(path)
         record.setdefault("run", f"{path.parent.name}/{path.stem}")
         add(f"{path.parent.name}/{path.stem}", record, path)
+    for path in part_files(folder):
+        for record in read_part(path, label):
+            add(record.get("run"), record, path)
     return dict(sorted(found.items(), key=lambda item: run_order(item[0])))
 
 
@@ -217,6 +224,8 @@ def _locked(folder: Path) -> Iterator[None]:
 
 def remove_leftovers(folder: Path) -> list[Path]:
     """Remove the temporary files that an interrupted part write left in ``folder``; returns them."""
+    if not folder.is_dir():
+        return []
     with _locked(folder):
         leftovers = sorted(folder.glob(".part-*.parquet.*.tmp"))
         for path in leftovers:
@@ -240,10 +249,10 @@ def write_part(folder: Path, label: str, records: Sequence[dict[str, Any]]) -> P
 
 
 def consolidate(folder: Path, label: str | None = None, absorb_json: bool = False) -> dict[str, int]:
-    """Merge a controller's parts (with ``absorb_json``, its JSON records too) into one part, read back and
-    compared before the old parts and files are removed, so an interruption loses nothing (a rerun
-    finishes the job). Returns ``{"runs", "parts_merged", "json_removed"}``; nothing is written where
-    there is nothing to merge."""
+    """Merge a controller's parts (with ``absorb_json``, its JSON records too; without, only the JSON files
+    that a part holds a newer record of go) into one part, read back and compared before the old parts and
+    files are removed, so an interruption loses nothing (a rerun finishes the job). Returns ``{"runs",
+    "parts_merged", "json_removed"}``; nothing is written where there is nothing to merge."""
     label = folder.name if label is None else label
     with _locked(folder):
         return _consolidate(folder, label, absorb_json)
@@ -251,7 +260,10 @@ def consolidate(folder: Path, label: str | None = None, absorb_json: bool = Fals
 
 def _consolidate(folder: Path, label: str, absorb_json: bool) -> dict[str, int]:
     runs = read_runs(folder, label)
-    parts, files = part_files(folder), json_files(folder) if absorb_json else []
+    files = json_files(folder)
+    if not absorb_json:  # only those whose run a part holds a newer record of
+        files = [path for path in files if runs[f"{path.parent.name}/{path.stem}"].source != path]
+    parts = part_files(folder)
     if not files and len(parts) <= 1:
         return {"runs": len(runs), "parts_merged": 0, "json_removed": 0}
     kept = [stored.record for stored in runs.values() if absorb_json or stored.source.suffix == ".parquet"]
