@@ -36,24 +36,11 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from krl.agent.config import AgentConfig
-from krl.robots.a1.constants import KP, STANDING_JOINT_ANGLES
+from krl.bench.sim import bare_seconds
 from krl.sim.model import build_model
-from krl.sim.robot import A1Sim
-from krl.util.timing import SUBSTEPS
 
 ENV_TARGET_RATIO = 0.5
 TRAIN_TARGET_RATIO = 0.3
-
-
-def _bare_rate(steps: int) -> float:
-    sim = A1Sim(build_model("heightfield", seed=0))
-    data = mujoco.MjData(sim.model)
-    mujoco.mj_copyData(data, sim.model, sim.data)
-    data.ctrl[:12] = KP * STANDING_JOINT_ANGLES
-    start = time.perf_counter()
-    for _ in range(steps):
-        mujoco.mj_step(sim.model, data, nstep=SUBSTEPS)
-    return steps / (time.perf_counter() - start)
 
 
 def _env_rate(config, num_envs: int, steps: int) -> float:
@@ -109,7 +96,7 @@ def bench_agent(
     bare, env = [], []
     with threadpool_limits(1):
         for _ in range(repeats):
-            bare.append(_bare_rate(steps * 4))
+            bare.append(steps * 4 / bare_seconds(build_model("heightfield", seed=0), steps * 4))
             env.append(_env_rate(config, num_envs, steps))
         batched_us, single_us = _policy_times(config, num_envs)
     bare_rate, env_rate = statistics.median(bare), statistics.median(env)

@@ -26,26 +26,10 @@ from pathlib import Path
 import mujoco
 from threadpoolctl import threadpool_limits
 
-from krl.robots.a1.constants import KP, STANDING_JOINT_ANGLES
-from krl.util.timing import SUBSTEPS
+from krl.bench.sim import bare_seconds
 
 TARGET_RATIO = 0.6
 """Required evaluation/bare ratio per core (issue 46)."""
-
-
-def _bare_seconds(built, steps: int) -> float:
-    """Seconds ``steps`` bare control steps of a course's model (:class:`krl.sim.model.BuiltModel`) take,
-    from the robot's standing reset state."""
-    from krl.sim.robot import A1Sim
-
-    sim = A1Sim(built)
-    model, data = sim.model, mujoco.MjData(sim.model)
-    mujoco.mj_copyData(data, model, sim.data)
-    data.ctrl[:12] = KP * STANDING_JOINT_ANGLES
-    start = time.perf_counter()
-    for _ in range(steps):
-        mujoco.mj_step(model, data, nstep=SUBSTEPS)
-    return time.perf_counter() - start
 
 
 def _evaluation(spec, courses, seeds, folder: Path) -> tuple[float, dict[str, int]]:
@@ -85,7 +69,7 @@ def bench_evaluate(
             seconds, walked = _evaluation(spec, loaded, list(seeds), Path(folder) / f"courses{repeat}")
             total = sum(walked.values())
             eval_rates.append(total / seconds)
-            bare = sum(_bare_seconds(models[name], steps) for name, steps in walked.items())
+            bare = sum(bare_seconds(models[name], steps) for name, steps in walked.items())
             bare_rates.append(total / bare)
         cores = os.cpu_count() or 1
         tasks = push_tasks(spec, PushSweep(attempts=push_attempts), list(seeds)) if push_attempts else []

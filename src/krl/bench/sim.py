@@ -15,7 +15,7 @@ import time
 import mujoco
 
 from krl.robots.a1.constants import KP, STANDING_JOINT_ANGLES
-from krl.sim.model import build_model
+from krl.sim.model import BuiltModel, build_model
 from krl.sim.robot import A1Sim
 from krl.util.timing import SUBSTEPS
 
@@ -28,6 +28,20 @@ def _rate(step, steps: int) -> float:
     for _ in range(steps):
         step()
     return steps / (time.perf_counter() - start)
+
+
+def bare_seconds(built: BuiltModel, steps: int) -> float:
+    """Seconds ``steps`` bare control steps (``mj_step(nstep=5)``, constant controls holding the standing
+    pose) of the robot on ``built`` take, from its standing reset state: the floor a benchmark's rate is
+    set against."""
+    sim = A1Sim(built)
+    data = mujoco.MjData(sim.model)
+    mujoco.mj_copyData(data, sim.model, sim.data)
+    data.ctrl[:12] = KP * STANDING_JOINT_ANGLES
+    start = time.perf_counter()
+    for _ in range(steps):
+        mujoco.mj_step(sim.model, data, nstep=SUBSTEPS)
+    return time.perf_counter() - start
 
 
 def bench_terrain(terrain: str, steps: int, repeats: int, seed: int = 0) -> dict[str, float]:
