@@ -252,14 +252,14 @@ def run_report(args: argparse.Namespace) -> int:
 
 def run_convert(args: argparse.Namespace) -> int:
     """``krl convert-results``: a results folder of per-run JSON files as one Parquet part per controller."""
-    from krl.eval.records import convert, labels_in
+    from krl.eval.records import controller_labels, convert
     from krl.util.progress import progress_bar
 
     results = Path(args.results)
-    total = len(args.controller or (labels_in(results) if results.is_dir() else ()))
+    labels = controller_labels(results, args.controller)
     with progress_bar(not args.quiet, unit="controllers", status=True) as bar:
-        task = bar.add_task("convert", total=total, status="")
-        converted = convert(results, args.controller, lambda label: bar.update(task, advance=1, status=label))
+        task = bar.add_task("convert", total=len(labels), status="")
+        converted = convert(results, labels, lambda label: bar.update(task, advance=1, status=label))
     runs = sum(entry["runs"] for entry in converted.values())
     removed = sum(entry["json_removed"] for entry in converted.values())
     summary = {"results": str(results), "runs": runs, "json_removed": removed, "controllers": converted}

@@ -15,9 +15,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from krl.eval.records import EvaluationError, labels_in, read_runs
+from krl.eval.records import WALL_TIME, controller_labels, read_runs
 
-IGNORED: tuple[str, ...] = ("metrics.wall_seconds",)
+IGNORED: tuple[str, ...] = (f"metrics.{WALL_TIME}",)
 """Fields that differ between two runs of the same task (wall-clock time)."""
 
 OUTCOMES: tuple[str, ...] = (
@@ -74,11 +74,9 @@ def compare_results(
     first: Path, second: Path, labels: Sequence[str] | None = None, ignored: Sequence[str] = IGNORED
 ) -> dict[str, Any]:
     """Compare two results folders (module docstring); ``labels``: only these controllers (default: every
-    one either folder holds). :class:`EvaluationError` for a missing folder or controller."""
-    for folder in (first, second):
-        if not folder.is_dir():
-            raise EvaluationError(f"no results folder {str(folder)!r}")
-    names = list(labels or dict.fromkeys([*labels_in(first), *labels_in(second)]))
+    one either folder holds). :class:`krl.eval.records.EvaluationError` for a missing folder or controller."""
+    found = [controller_labels(folder, labels) for folder in (first, second)]
+    names = list(dict.fromkeys([*found[0], *found[1]]))
     only: dict[str, list[str]] = {"first": [], "second": []}
     equal = different = 0
     largest: dict[str, float] = {}  # numeric fields: the largest absolute difference
@@ -86,11 +84,7 @@ def compare_results(
     moved: list[str] = []
     examples: list[dict[str, Any]] = []
     for label in names:
-        runs = []
-        for folder in (first, second):
-            if labels and not (folder / label).is_dir():
-                raise EvaluationError(f"no results for controller {label!r} in {str(folder)!r}")
-            runs.append(read_runs(folder / label, label) if (folder / label).is_dir() else {})
+        runs = [read_runs(f / label, label) if (f / label).is_dir() else {} for f in (first, second)]
         only["first"] += [f"{label} {run}" for run in runs[0] if run not in runs[1]]
         only["second"] += [f"{label} {run}" for run in runs[1] if run not in runs[0]]
         for run in (run for run in runs[0] if run in runs[1]):

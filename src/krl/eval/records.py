@@ -170,12 +170,22 @@ def json_files(folder: Path) -> list[Path]:
     return sorted(path for path in folder.glob("*/*.json") if path.is_file())
 
 
+def json_run(path: Path) -> str:
+    """The run key of an older-layout record file ``OUT/<label>/<group>/<name>.json``: ``<group>/<name>``."""
+    return f"{path.parent.name}/{path.stem}"
+
+
 def part_files(folder: Path) -> list[Path]:
     return sorted(folder.glob(PART_GLOB))
 
 
+WALL_TIME = "wall_seconds"
+"""The metric that differs between two runs of one task (wall-clock time [s]): every other is fixed by the
+run's key."""
+
+
 def _without_wall_time(record: dict[str, Any]) -> dict[str, Any]:
-    return {**record, "metrics": {k: v for k, v in record["metrics"].items() if k != "wall_seconds"}}
+    return {**record, "metrics": {k: v for k, v in record["metrics"].items() if k != WALL_TIME}}
 
 
 def read_runs(folder: Path, label: str | None = None) -> dict[str, StoredRun]:
@@ -200,8 +210,8 @@ def read_runs(folder: Path, label: str | None = None) -> dict[str, StoredRun]:
 
     for path in json_files(folder):
         record = read_json_record(path)
-        record.setdefault("run", f"{path.parent.name}/{path.stem}")
-        add(f"{path.parent.name}/{path.stem}", record, path)
+        record.setdefault("run", json_run(path))
+        add(json_run(path), record, path)
     for path in part_files(folder):
         for record in read_part(path, label):
             add(record.get("run"), record, path)
@@ -262,7 +272,7 @@ def _consolidate(folder: Path, label: str, absorb_json: bool) -> dict[str, int]:
     runs = read_runs(folder, label)
     files = json_files(folder)
     if not absorb_json:  # only those whose run a part holds a newer record of
-        files = [path for path in files if runs[f"{path.parent.name}/{path.stem}"].source != path]
+        files = [path for path in files if runs[json_run(path)].source != path]
     parts = part_files(folder)
     if not files and len(parts) <= 1:
         return {"runs": len(runs), "parts_merged": 0, "json_removed": 0}
@@ -319,20 +329,26 @@ def labels_in(results: Path) -> list[str]:
     return sorted(path.name for path in results.iterdir() if path.is_dir())
 
 
-def convert(
-    results: Path, labels: Iterable[str] | None = None, on_done: Callable[[str], None] | None = None
-) -> dict[str, dict[str, int]]:
-    """Rewrite an evaluation folder of the older layout as parts, one per controller (:func:`consolidate`
-    absorbing the JSON files); returns what each label held and what was merged and removed.
-    ``on_done(label)`` is called as each controller is done."""
+def controller_labels(results: Path, labels: Iterable[str] | None = None) -> list[str]:
+    """``labels`` (default: every controller of ``results``, :func:`labels_in`), each checked to have a
+    folder there; :class:`EvaluationError` (one line) for a missing results folder or controller."""
     if not results.is_dir():
         raise EvaluationError(f"no results folder {str(results)!r}")
     labels = list(labels or labels_in(results))
     for label in labels:
         if not (results / label).is_dir():
             raise EvaluationError(f"no results for controller {label!r} in {str(results)!r}")
+    return labels
+
+
+def convert(
+    results: Path, labels: Iterable[str] | None = None, on_done: Callable[[str], None] | None = None
+) -> dict[str, dict[str, int]]:
+    """Rewrite an evaluation folder of the older layout as parts, one per controller (:func:`consolidate`
+    absorbing the JSON files); returns what each label held and what was merged and removed.
+    ``on_done(label)`` is called as each controller is done."""
     converted = {}
-    for label in labels:
+    for label in controller_labels(results, labels):
         converted[label] = consolidate(results / label, label, absorb_json=True)
         if on_done is not None:
             on_done(label)
