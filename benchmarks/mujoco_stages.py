@@ -46,7 +46,7 @@ def main() -> None:
         for _ in range(args.warmup):
             env.step_async(policy.act(observations))
             observations = env.step_wait()[0]
-        datas = [sim.data for sim in env.batch.sims.sims]
+        datas = [env.batch.sims.data(index) for index in range(args.robots)]
         before = _timers(datas)
         contacts, rows, wall = [], [], 0.0
         for _ in range(args.steps):

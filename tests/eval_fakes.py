@@ -1,13 +1,15 @@
 """A point robot and a do-nothing controller, to score runs whose every number is known by hand; a short
 course for the tests that walk the real robot."""
 
+import dataclasses
 import math
 from pathlib import Path
 
 import numpy as np
 
 from krl.control.types import JointCommand
-from krl.sim.robot import RobotState
+from krl.sim.batch import SimulationUnstableError
+from krl.sim.state import RobotState, StateBatch
 from krl.util.timing import CONTROL_DT
 
 
@@ -44,34 +46,86 @@ def make_state(
     )
 
 
-class PointSim:
-    """Moves ``speed_per_step`` metres along +x every control step, level, and falls on step ``fall_at``."""
+class PointBatch:
+    """The interface of :class:`krl.sim.batch.SimBatch` for one point robot: every control step it turns
+    ``turn_per_step`` [rad] and moves ``speed_per_step`` metres along its heading, level; it falls on step
+    ``fall_at`` and its physics diverges on step ``diverge_at``."""
 
-    def __init__(self, speed_per_step=0.25, fall_at=None):
-        self.speed_per_step = speed_per_step
-        self.fall_at = fall_at
-        self.steps = 0
-        self.state = make_state()
+    def __init__(self, speed_per_step, turn_per_step=0.0, fall_at=None, diverge_at=None):
+        self.speed_per_step, self.turn_per_step = speed_per_step, turn_per_step
+        self.fall_at, self.diverge_at = fall_at, diverge_at
+        self.unstable = np.zeros(1, dtype=bool)
+        self.pushed = None
+        self.reset(0)
+
+    def __len__(self):
+        return 1
 
     @property
-    def time(self):
-        return self.steps * CONTROL_DT
+    def step_counts(self):
+        return np.array([self.steps])
 
-    def reset(self, xy=(0.0, 0.0), yaw=0.0):
-        self.steps = 0
-        self.state = make_state(xy=xy, yaw=yaw)
+    @property
+    def states(self):
+        return self._states
+
+    def reset(self, index, xy=(0.0, 0.0), yaw=0.0):
+        self.steps, self.yaw = 0, yaw
+        self.unstable[:] = False
+        self._set(make_state(xy=xy, yaw=yaw))
         return self.state
+
+    def _set(self, state):
+        self.state, self._states = state, StateBatch.from_states([state])
+
+    def push(self, index, push):
+        self.pushed = push
+
+    def divergence(self, index):
+        if self.unstable[0]:
+            return SimulationUnstableError(f"simulation diverged at t={(self.steps - 1) * CONTROL_DT:.3f} s")
+        return None
 
     def step(self, q_target, kp=None, kd=None, tau_ff=None):
         self.steps += 1
-        x = self.state.base_pos[0] + self.speed_per_step
-        self.state = make_state(
-            xy=(x, self.state.base_pos[1]), time=self.time, fallen=self.steps == self.fall_at
+        if self.steps == self.diverge_at:
+            self.unstable[0] = True
+            self._set(dataclasses.replace(self.state, fallen=True))
+            return self._states
+        self.yaw += self.turn_per_step
+        xy = self.state.base_pos[:2] + self.speed_per_step * np.array(
+            [math.cos(self.yaw), math.sin(self.yaw)]
         )
-        return self.state
+        time = self.steps * CONTROL_DT
+        self._set(make_state(xy=tuple(xy), yaw=self.yaw, time=time, fallen=self.steps == self.fall_at))
+        return self._states
 
-    def push(self, push):
-        self.pushed = push
+
+class PointSim:
+    """A point robot as :class:`krl.sim.robot.A1Sim` is one robot: a :class:`PointBatch` of one (by
+    default walking +x 0.25 m per control step)."""
+
+    def __init__(self, speed_per_step=0.25, fall_at=None, turn_per_step=0.0, diverge_at=None):
+        self.batch = PointBatch(speed_per_step, turn_per_step, fall_at, diverge_at)
+
+    @property
+    def state(self):
+        return self.batch.state
+
+    @property
+    def step_count(self):
+        return self.batch.steps
+
+    @property
+    def time(self):
+        return self.batch.steps * CONTROL_DT
+
+    @property
+    def pushed(self):
+        return self.batch.pushed
+
+    def reset(self, xy=(0.0, 0.0), yaw=0.0):
+        return self.batch.reset(0, xy, yaw)
 
 
 class StandStill:
@@ -84,31 +138,10 @@ class StandStill:
         return JointCommand(np.zeros(12))
 
 
-class TurningPointSim(PointSim):
-    """A PointSim that turns ``turn_per_step`` [rad] every control step and walks along its heading, counting
-    its control steps as A1Sim does (``step_count``), so the heading at a push is known by hand."""
-
-    def __init__(self, speed_per_step=0.001, turn_per_step=0.05, fall_at=None):
-        super().__init__(speed_per_step, fall_at)
-        self.turn_per_step = turn_per_step
-        self.yaw = 0.0
-
-    @property
-    def step_count(self):
-        return self.steps
-
-    def reset(self, xy=(0.0, 0.0), yaw=0.0):
-        self.yaw = yaw
-        return super().reset(xy, yaw)
-
-    def step(self, q_target, kp=None, kd=None, tau_ff=None):
-        self.steps += 1
-        self.yaw += self.turn_per_step
-        x, y = self.state.base_pos[:2] + self.speed_per_step * np.array(
-            [math.cos(self.yaw), math.sin(self.yaw)]
-        )
-        self.state = make_state(xy=(x, y), yaw=self.yaw, time=self.time, fallen=self.steps == self.fall_at)
-        return self.state
+def TurningPointSim(speed_per_step=0.001, turn_per_step=0.05, fall_at=None):
+    """A :class:`PointSim` that turns ``turn_per_step`` [rad] every control step and walks slowly along its
+    heading, so the heading at a push is known by hand."""
+    return PointSim(speed_per_step, fall_at, turn_per_step)
 
 
 SHORT_FLAT = """format = 1

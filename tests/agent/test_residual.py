@@ -11,9 +11,9 @@ from krl.agent.controller import AgentController
 from krl.agent.residual import ResidualController
 from krl.kernel.controller import KernelController
 from krl.kernel.registry import load_model
-from krl.sim.batch import StateBatch
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim
+from krl.sim.state import StateBatch
 from krl.task.runner import Runner
 
 

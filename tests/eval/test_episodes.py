@@ -5,7 +5,6 @@ import pytest
 from eval_fakes import PointSim, StandStill
 
 from krl.eval.episodes import RUN_METRICS, PushSweep, score_walk
-from krl.sim.robot import SimulationUnstableError
 
 WAYPOINTS = np.array([[1.0, 0.0], [2.0, 0.0], [3.0, 0.0], [4.0, 0.0], [5.0, 0.0]])
 
@@ -59,13 +58,8 @@ def test_a_step_that_passes_two_close_waypoints_counts_both():
 
 
 def test_a_diverging_simulation_is_recorded_not_raised():
-    class Diverging(PointSim):
-        def step(self, *args, **kwargs):
-            if self.steps == 4:
-                raise SimulationUnstableError("simulation diverged at t=0.020 s")
-            return super().step(*args, **kwargs)
-
-    metrics = score_walk(Diverging(0.25), StandStill(), WAYPOINTS, (0.0, 0.0, 0.0), 60.0, 0.5)
+    sim = PointSim(0.25, diverge_at=5)
+    metrics = score_walk(sim, StandStill(), WAYPOINTS, (0.0, 0.0, 0.0), 60.0, 0.5)
     assert metrics["error"].startswith("SimulationUnstableError") and metrics["ended"] == "error"
     assert metrics["targets_reached"] == 1 and metrics["success"] is False
 

@@ -1,4 +1,5 @@
-"""SimBatch: its batched step and readout are N single A1Sims' steps and readouts, bit for bit."""
+"""SimBatch: its batched step and readout are N single robots' steps and one-robot readouts, bit for bit;
+A1Sim is the batch of one."""
 
 import dataclasses
 
@@ -6,10 +7,11 @@ import numpy as np
 import pytest
 
 from krl.robots.a1.constants import STANDING_JOINT_ANGLES
-from krl.sim.batch import SimBatch, StateBatch
+from krl.sim.batch import SimBatch
 from krl.sim.model import build_model
 from krl.sim.pushes import Push
-from krl.sim.robot import A1Sim
+from krl.sim.robot import A1Sim, SimulationUnstableError
+from krl.sim.state import StateBatch
 
 FIELDS = [field.name for field in dataclasses.fields(StateBatch)]
 
@@ -38,7 +40,7 @@ def test_batched_steps_and_readout_are_single_simulators_bit_for_bit():
                 (0, Push(0.06, np.array([200.0, 60.0, 30.0]), np.array([0.1, 0.04, 0.05]))),
                 (2, Push(0.06, np.array([0.0, 900.0, 100.0]), np.array([0.0, 0.0, 0.05]), mode="continuous")),
             ):
-                batch.sims[index].push(push)
+                batch.push(index, push)
                 singles[index].push(push)
         if k == 120:  # a reset and a terrain swap
             np.testing.assert_array_equal(
@@ -56,9 +58,8 @@ def test_batched_steps_and_readout_are_single_simulators_bit_for_bit():
         assert_same_states(states, [sim.step(target) for sim, target in zip(singles, q, strict=True)])
         assert batch.states is states
     assert states.fallen[2] and not states.fallen[:2].any()
-    # a simulator of the batch reads its own state out on demand, the same as the batch's
-    for index, sim in enumerate(batch.sims):
-        assert_same_states(batch.states.rows([index]), [sim.state])
+    # the one-robot readout of each robot's MjData is the batched readout's row, bit for bit
+    assert_same_states(batch.states, [batch.read_state(index) for index in range(len(batch))])
 
 
 def test_an_earlier_batch_is_a_snapshot():
@@ -76,16 +77,17 @@ def test_a_diverged_robot_keeps_its_last_state_marked_fallen():
     batch = SimBatch([build_model("flat")] * 3)
     q = np.tile(STANDING_JOINT_ANGLES, (3, 1))
     before = batch.step(q)
-    batch.sims[1].data.qvel[0] = np.nan
+    batch.data(1).qvel[0] = np.nan
     after = batch.step(q)
     np.testing.assert_array_equal(batch.unstable, [False, True, False])
     np.testing.assert_array_equal(after.fallen, [False, True, False])
     for name in FIELDS:
         if name != "fallen":
             np.testing.assert_array_equal(getattr(after, name)[1], getattr(before, name)[1], err_msg=name)
-    assert not batch.sims[1].state.fallen  # the simulator's own state: the last one before the divergence
-    np.testing.assert_array_equal(batch.sims[1].state.base_pos, before.base_pos[1])
+    with pytest.raises(SimulationUnstableError, match=r"starting at t=0\.010 s"):
+        batch.step(q, raise_on_divergence=True)
     batch.reset(1)
+    assert not batch.unstable.any()
     batch.step(q)
     assert not batch.unstable.any()
 
@@ -101,7 +103,7 @@ def test_bad_targets_are_refused():
 def test_models_with_markers_before_the_robots_sites_are_read_out_alike():
     models = [build_model("flat"), build_model("flat", markers=[(1.0, 0.0), (2.0, 1.0)])]
     batch, singles = SimBatch(models), [A1Sim(built) for built in models]
-    assert singles[0]._foot_sites.tolist() != singles[1]._foot_sites.tolist()
+    assert models[0].model.site("FR_foot").id != models[1].model.site("FR_foot").id
     for _ in range(20):
         states = batch.step(np.tile(STANDING_JOINT_ANGLES, (2, 1)))
         assert_same_states(states, [sim.step(STANDING_JOINT_ANGLES) for sim in singles])

@@ -113,9 +113,12 @@ def test_upside_down_robot_has_fallen(flat):
 
 def test_divergence_raises_clear_error(flat):
     sim = A1Sim(flat)
+    before = sim.state
     sim.data.qvel[0] = np.nan
     with pytest.raises(SimulationUnstableError, match=r"starting at t=0\.000 s"):
         sim.step(STANDING_JOINT_ANGLES)
+    assert sim.state.fallen  # the last state before the divergence, marked fallen
+    np.testing.assert_array_equal(sim.state.joint_pos, before.joint_pos)
 
 
 @pytest.mark.parametrize(

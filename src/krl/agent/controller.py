@@ -14,8 +14,7 @@ from krl.agent.policy import Policy, check_kernel_file
 from krl.agent.residual import ResidualController
 from krl.control.types import JointCommand
 from krl.kernel.model import load_kernel
-from krl.sim.batch import StateBatch
-from krl.sim.robot import RobotState
+from krl.sim.state import RobotState, StateBatch
 
 
 class AgentController:

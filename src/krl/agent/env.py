@@ -1,8 +1,10 @@
 """The residual agent's environments: N robots walking to random waypoints on rough terrain, with pushes.
 
-:class:`ResidualEnvBatch` is the core: N environments stepped together in one process, the physics one
-robot after the other (:class:`krl.sim.batch.SimBatch`), everything else (kernel, filter, IK, observation,
-reward) batched over N. Two faces use it:
+:class:`ResidualEnvBatch` is the core: N environments stepped together in one process through the one
+episode loop (:class:`krl.task.episode.EpisodeBatch`: pushes, physics, task, reward terms, termination;
+the loop evaluation walks its runs through), the physics one robot after the other
+(:class:`krl.sim.batch.SimBatch`), everything else (kernel, filter, IK, observation, reward) batched over N.
+Two faces use it:
 
 * :class:`A1ResidualEnv`, the Gymnasium environment ``krl/A1Residual-v0`` (one robot);
 * :class:`ResidualVecEnv`, a Stable-Baselines3 ``VecEnv`` of N robots with automatic resets.
@@ -34,11 +36,12 @@ from krl.agent.vec_env import BatchVecEnv
 from krl.control.commands import CommandParams
 from krl.kernel.model import load_kernel
 from krl.kernel.registry import resolve_model
-from krl.sim.batch import SimBatch, StateBatch
+from krl.sim.batch import SimBatch
 from krl.sim.model import build_model
 from krl.sim.pushes import PushDistribution, PushSchedule
-from krl.task.reward import StanceMemory, reward_terms
-from krl.task.waypoints import TaskStatus, WaypointTask, random_targets
+from krl.sim.state import StateBatch
+from krl.task.episode import EpisodeBatch
+from krl.task.waypoints import WaypointTask, random_targets
 from krl.util.timing import CONTROL_DT
 
 EPISODE_INFO_KEYS: tuple[str, ...] = (
@@ -75,14 +78,13 @@ class ResidualEnvBatch:
         self.features = config.observation.features
         self.observation_size = observation_size(self.features)
         self.reward = config.env.reward
-        self.stance = StanceMemory() if self.reward.needs_stance else None
-        """The stance feet's history, for a reward that measures it."""
         self.command_params = replace(CommandParams(), d_min=config.env.d_min)
         env = config.env
         self.pushes = PushDistribution(interval=env.push_interval, magnitude=env.push_magnitude)
         self.rngs: list[np.random.Generator] = [np.random.default_rng(index) for index in range(num_envs)]
         self.sims: SimBatch | None = None
-        self.tasks: list[WaypointTask | None] = [None] * num_envs
+        self.episodes: EpisodeBatch | None = None
+        """The episode loop over :attr:`sims` (made with the first terrain)."""
         self.push_schedules: list[PushSchedule | None] = [None] * num_envs
         self.push_watch = np.full(num_envs, np.nan)
         """Start time [s] of each environment's latest push whose outcome is not known yet, else NaN."""
@@ -134,6 +136,7 @@ class ResidualEnvBatch:
         """Start a new episode in each environment of ``rows``; returns their observations, (n, D)."""
         rows = np.atleast_1d(np.asarray(rows, dtype=np.int64))
         env = self.config.env
+        tasks: list[WaypointTask] = []
         for index in rows:
             new_terrain = (
                 self.needs_terrain[index] or self.episodes_on_terrain[index] >= env.episodes_per_terrain
@@ -142,14 +145,15 @@ class ResidualEnvBatch:
                 built = self._terrain(index)
                 if self.sims is None:
                     self.sims = SimBatch([built] * self.num_envs)
+                    self.episodes = EpisodeBatch(self.sims, self.reward)
                 self.sims.replace(index, built)
                 self.needs_terrain[index] = False
                 self.episodes_on_terrain[index] = 0
             self.episodes_on_terrain[index] += 1
             rng = self.rngs[index]
-            sim = self.sims.sims[index]
             state = self.sims.reset(index, yaw=float(rng.uniform(-np.pi, np.pi)))
-            low, high = sim.terrain.landmarks["field_min"], sim.terrain.landmarks["field_max"]
+            landmarks = self.sims.terrain(index).landmarks
+            low, high = landmarks["field_min"], landmarks["field_max"]
             margin = env.field_margin
             bounds = (low[0] + margin, low[1] + margin, high[0] - margin, high[1] - margin)
             count = math.ceil(env.episode_time * self.command_params.max_speed / env.target_distance[0]) + 2
@@ -158,7 +162,7 @@ class ResidualEnvBatch:
                 targets, self.command_params, target_time_limit=None, time_limit=env.episode_time
             )
             task.reset(state.base_pos[:2])
-            self.tasks[index] = task
+            tasks.append(task)
             self.push_schedules[index] = PushSchedule(self.pushes, rng) if env.pushes else None
             self.push_watch[index] = np.nan
             self.episode_reward[index] = 0.0
@@ -166,11 +170,10 @@ class ResidualEnvBatch:
             for sums in self.episode_terms.values():
                 sums[index] = 0.0
             self.episode_start[index] = time.perf_counter()
+        self.episodes.start(rows, tasks, [self.push_schedules[index] for index in rows])
         self.controller.reset(rows)
         self.states = self.sims.states
-        if self.stance is not None:
-            self.stance.reset(rows)
-        self._prepare(self.states.rows(rows), rows)
+        self.controller.prepare(self.states.rows(rows), self.episodes.commands[rows], rows)
         return self._observe(rows)
 
     def set_push_ceiling(self, newtons: float) -> None:
@@ -182,16 +185,6 @@ class ResidualEnvBatch:
                 schedule.distribution = self.pushes
 
     # --- stepping ----------------------------------------------------------------------------------
-
-    def _prepare(self, states: StateBatch, rows: np.ndarray) -> None:
-        """The coming step's commands from the tasks (zero where a task is over) and the kernel's targets."""
-        commands = np.zeros((len(rows), 3))
-        base_xy, yaws = states.base_pos[:, :2], states.rpy[:, 2].tolist()
-        for k, index in enumerate(rows):
-            command = self.tasks[index].command(base_xy[k], yaws[k])
-            if command is not None:
-                commands[k] = command
-        self.controller.prepare(states, commands, rows)
 
     def _observe(self, rows: np.ndarray) -> np.ndarray:
         inputs = self.controller.observation_inputs(self.states)
@@ -205,29 +198,18 @@ class ResidualEnvBatch:
         reset before the next step.
         """
         q_target = self.controller.joint_targets(actions)
-        commands = self.controller.command.copy()
-        sims = self.sims
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
-        for index, (sim, schedule) in enumerate(zip(sims.sims, self.push_schedules, strict=True)):
-            if schedule is not None:
-                push = schedule.due(sim.time)
-                if push is not None:
-                    sim.push(push)
-                    if not np.isnan(self.push_watch[index]):  # a push before the last one's verdict
-                        infos[index]["push_survived"] = True
-                    self.push_watch[index] = push.start_time
-        states = sims.step(q_target)
-        self.states = states
-        steps = [task.after_step(xy) for task, xy in zip(self.tasks, states.base_pos[:, :2], strict=True)]
-        distance = np.array([step.distance for step in steps])
-        reached = np.array([step.reached for step in steps], dtype=bool)
-        terminated = states.fallen.copy()
-        stance = None if self.stance is None else self.stance.update(states)
-        terms = reward_terms(self.reward, commands, states, distance, reached, terminated, stance)
+        step = self.episodes.step(q_target)
+        for index, push in enumerate(step.pushes):
+            if push is not None:
+                if not np.isnan(self.push_watch[index]):  # a push before the last one's verdict
+                    infos[index]["push_survived"] = True
+                self.push_watch[index] = push.start_time
+        self.states = states = step.states
+        terminated, truncated, terms = step.fell, step.ended & ~step.fell, step.terms
         rewards = np.sum(list(terms.values()), axis=0)
         self.last_terms = terms
-        self._prepare(states, np.arange(self.num_envs))  # the tasks move on past waypoints reached now
-        truncated = np.array([task.status is not TaskStatus.WALKING for task in self.tasks]) & ~terminated
+        self.controller.prepare(states, self.episodes.commands)
         observations = self._observe(np.arange(self.num_envs))
         self.episode_reward += rewards
         self.episode_steps += 1
@@ -242,9 +224,9 @@ class ResidualEnvBatch:
                 "r": float(self.episode_reward[index]),
                 "l": int(self.episode_steps[index]),
                 "t": round(time.perf_counter() - self.episode_start[index], 6),
-                "targets_reached": int(self.tasks[index].reached_count),
+                "targets_reached": int(self.episodes.tasks[index].reached_count),
                 "fell": bool(terminated[index]),
-                "unstable": bool(sims.unstable[index]),
+                "unstable": bool(step.unstable[index]),
                 "terrain": self.terrain_names[index],
                 "terms": {name: float(sums[index]) for name, sums in self.episode_terms.items()},
             }
@@ -360,8 +342,8 @@ class A1ResidualEnv(gym.Env):
         if self._renderer is None:
             from krl.sim.render import FrameRenderer
 
-            self._renderer = FrameRenderer(self.batch.sims.sims[0].model, 640, 480)
-        return self._renderer.render(self.batch.sims.sims[0].data)
+            self._renderer = FrameRenderer(self.batch.sims.model(0), 640, 480)
+        return self._renderer.render(self.batch.sims.data(0))
 
     def close(self) -> None:
         if self._renderer is not None:

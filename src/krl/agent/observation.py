@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from krl.sim.batch import StateBatch
+from krl.sim.state import StateBatch
 
 
 @dataclass(frozen=True)

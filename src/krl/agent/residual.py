@@ -32,7 +32,7 @@ from krl.kernel.features import features_from_columns
 from krl.kernel.model import Kernel
 from krl.kernel.settings import training_settings
 from krl.robots.a1.constants import NUM_LEGS
-from krl.sim.batch import StateBatch
+from krl.sim.state import StateBatch
 from krl.util.timing import CONTROL_DT
 
 __all__ = ["BATCHABLE_VARIANTS", "ResidualController"]
@@ -124,7 +124,7 @@ class ResidualController:
         """Advance the gait clocks and compute the kernel's targets for the coming step.
 
         Args:
-            state: the current states (:class:`krl.sim.batch.StateBatch`) of the robots in ``rows``.
+            state: the current states (:class:`krl.sim.state.StateBatch`) of the robots in ``rows``.
             command: the task's velocity commands (v_x, v_y, ω_z) [m/s, m/s, rad/s]. Shape: (n, 3).
             rows: indices of the robots to prepare (n of them); None: all N.
         """

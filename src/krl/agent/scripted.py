@@ -27,8 +27,7 @@ from krl.agent.config import ResidualConfig
 from krl.agent.residual import ResidualController
 from krl.control.types import JointCommand
 from krl.kernel.registry import load_model
-from krl.sim.batch import StateBatch
-from krl.sim.robot import RobotState
+from krl.sim.state import RobotState, StateBatch
 
 
 @dataclass(frozen=True)

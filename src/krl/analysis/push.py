@@ -23,7 +23,7 @@ from krl.control.types import JointCommand
 from krl.eval.episodes import PushSweep
 from krl.robots.a1.constants import LEG_NAMES
 from krl.sim.pushes import Push
-from krl.sim.robot import RobotState
+from krl.sim.state import RobotState
 from krl.util.output import npz_bytes, write_atomic
 from krl.util.timing import CONTROL_DT
 

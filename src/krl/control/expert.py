@@ -20,7 +20,7 @@ from krl.control.mpc import GRAVITY, ConvexMPC, MPCError, MPCParams
 from krl.control.swing import NOMINAL_FOOT_XY, raibert_landing, swing_position
 from krl.control.types import JointCommand
 from krl.robots.a1.constants import FOOT_RADIUS, KD, KP, NUM_JOINTS, NUM_LEGS
-from krl.sim.robot import RobotState
+from krl.sim.state import RobotState
 
 _log = logging.getLogger(__name__)
 

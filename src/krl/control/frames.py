@@ -28,5 +28,5 @@ def heading_velocity(lin_vel_world: np.ndarray, yaw: np.ndarray, yaw_rate: np.nd
 
 def realised_velocity(state) -> np.ndarray:
     """(v_x, v_y) of the trunk in its heading frame [m/s] and the yaw rate [rad/s] of a
-    :class:`krl.sim.robot.RobotState` (shape (3,)) or a :class:`krl.sim.batch.StateBatch` (shape (N, 3))."""
+    :class:`krl.sim.state.RobotState` (shape (3,)) or a :class:`krl.sim.state.StateBatch` (shape (N, 3))."""
     return heading_velocity(state.lin_vel_world, state.rpy[..., 2], state.ang_vel_world[..., 2])

@@ -6,7 +6,7 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from krl.sim.robot import RobotState
+from krl.sim.state import RobotState
 
 
 class JointCommand(NamedTuple):

@@ -25,8 +25,8 @@ def input_columns(
     kernel controller and the residual agent.
 
     Args:
-        state: the state the controller saw: a :class:`krl.sim.robot.RobotState`, or a
-            :class:`krl.sim.batch.StateBatch` of N robots.
+        state: the state the controller saw: a :class:`krl.sim.state.RobotState`, or a
+            :class:`krl.sim.state.StateBatch` of N robots.
         command: velocity command (v_x, v_y, ω_z) [m/s, m/s, rad/s]. Shape: (3,) or (N, 3).
         normalised_phase: the gait's normalised phases |φ| (Eq. 4.6) of the step. Shape: (4,) or (N, 4).
         step_height, ride_height: kernel-ext's height inputs [m] (scalars or shape (N,)).

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -19,11 +18,13 @@ import numpy as np
 from krl.control.commands import CommandParams
 from krl.control.mpc import MPCError
 from krl.eval.summaries import PUSH_DIRECTIONS, QUARTER
-from krl.sim.robot import RobotState, SimulationUnstableError
+from krl.sim.pushes import OnePush
+from krl.sim.robot import SimulationUnstableError
 from krl.sim.terrains import MAX_GROUND_FRICTION
-from krl.task.reward import EVALUATION_REWARD, RewardConfig, StanceMemory, reward_terms
+from krl.task.episode import EpisodeStep
+from krl.task.reward import EVALUATION_REWARD, RewardConfig
 from krl.task.runner import Runner, StepRecord
-from krl.task.waypoints import TARGET_TIME_LIMIT, WaypointStep
+from krl.task.waypoints import TARGET_TIME_LIMIT
 from krl.util.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
 
 RUN_METRICS: tuple[str, ...] = (
@@ -45,25 +46,17 @@ RUN_METRICS: tuple[str, ...] = (
 )
 """Keys of a run's metrics (:meth:`EpisodeScorer.metrics`). Records made before ``ended`` existed lack it."""
 
-ENDINGS: tuple[str, ...] = ("finished", "fell", "timed_out", "error")
-"""Why a walk ended, as its record's ``ended`` says: every waypoint reached; a fall; out of time (a
-waypoint's or the course's); an ``error`` (the simulation diverged, the MPC gave up)."""
-
-
 class EpisodeScorer:
     """Called after every control step of a walk (``Runner.walk_to(on_task_step=scorer)``); accumulates
-    one run's metrics. The distance to the waypoint and whether it was reached come from the walk's
-    :class:`krl.task.waypoints.WaypointTask`, so the reward and the runner cannot disagree on them.
+    one run's metrics from what the episode loop made of the step (:class:`krl.task.episode.EpisodeStep`:
+    the reward terms, the waypoint reached, the fall), so the score and the walk cannot disagree.
 
     Args:
         targets: the run's waypoints, world (x, y) [m]. Shape: (N, 2).
-        reward: the reward function.
     """
 
-    def __init__(self, targets: np.ndarray, reward: RewardConfig = EVALUATION_REWARD) -> None:
+    def __init__(self, targets: np.ndarray) -> None:
         self.targets = np.asarray(targets, dtype=float).reshape(-1, 2)
-        self.reward = reward
-        self.stance = StanceMemory() if reward.needs_stance else None
         self.steps = 0
         self.targets_reached = 0
         self.fell = False
@@ -71,17 +64,13 @@ class EpisodeScorer:
         self.distance_walked = 0.0
         """Planar path length of the base [m]."""
 
-    def __call__(self, record: StepRecord, step: WaypointStep) -> None:
+    def __call__(self, record: StepRecord, step: EpisodeStep) -> None:
         after = record.after
-        stance = None if self.stance is None else self.stance.update(after)
-        terms = reward_terms(
-            self.reward, record.command, after, step.distance, step.reached, after.fallen, stance
-        )
-        for name, value in terms.items():
-            self.term_sums[name] = self.term_sums.get(name, 0.0) + value
+        for name, values in step.terms.items():
+            self.term_sums[name] = self.term_sums.get(name, 0.0) + values[0]
         self.steps += 1
-        self.targets_reached += step.reached
-        self.fell = self.fell or after.fallen
+        self.targets_reached += bool(step.reached[0])
+        self.fell = self.fell or bool(step.fell[0])
         moved = after.base_pos[:2] - record.before.base_pos[:2]
         self.distance_walked += math.hypot(moved[0], moved[1])
 
@@ -97,7 +86,7 @@ class EpisodeScorer:
 
         ``error`` is the one-line reason a run ended early without a fall (the simulation diverged, the
         MPC gave up); such a run is no success, and the aggregates count it as a fall. ``ended`` says why
-        the walk ended (one of :data:`ENDINGS`).
+        the walk ended (one of :data:`krl.task.episode.ENDINGS`).
         """
         total = sum(self.term_sums.values())
         count = len(self.targets)
@@ -149,7 +138,7 @@ def score_walk(
     """
     from dataclasses import replace
 
-    scorer = EpisodeScorer(targets, reward)
+    scorer = EpisodeScorer(targets)
     recorder = None
     if video is not None:
         from krl.sim.video import VideoRecorder
@@ -157,27 +146,29 @@ def score_walk(
         recorder = VideoRecorder(sim, video)
 
     push_heading: float | None = None
-    schedule = _push_scheduler(sim, push, push_in_heading_frame)
 
-    def on_step(record: StepRecord, step: WaypointStep) -> None:
+    def on_step(record: StepRecord, step: EpisodeStep) -> None:
         nonlocal push_heading
         scorer(record, step)
         if push is not None and push_heading is None and push.active_at(sim.step_count - 1):
             push_heading = float(record.before.rpy[2])  # the step just taken is the push's first
-        schedule(record.after)
         for capturing in (recorder, frames):
             if capturing is not None:
                 capturing.capture()
         if trace is not None:
             trace.append(record.after.base_pos.copy())
 
-    runner = Runner(sim, controller, replace(CommandParams(), d_min=d_min))
+    runner = Runner(sim, controller, replace(CommandParams(), d_min=d_min), reward=reward)
     wall = time.perf_counter()
     timed_out, error = False, None
     try:
-        schedule(runner.start(start_pose))
         result = runner.walk_to(
-            targets, target_time_limit=time_limit, reset=False, time_limit=time_limit, on_task_step=on_step
+            targets,
+            target_time_limit=time_limit,
+            start_pose=start_pose,
+            time_limit=time_limit,
+            on_task_step=on_step,
+            pushes=None if push is None else OnePush(push, push_in_heading_frame),
         )
         timed_out = result.timed_out
         scorer.passed(result.targets_reached)
@@ -190,21 +181,6 @@ def score_walk(
     if push is not None:
         metrics["push_heading"] = push_heading
     return metrics
-
-
-def _push_scheduler(sim, push, in_heading_frame: bool) -> Callable[[RobotState], None]:
-    """What schedules ``push`` (a :class:`krl.sim.pushes.Push`, or None) on ``sim``: call it with the state
-    before each control step (the reset's, then each step's result). A push in the world frame is scheduled
-    at the first call; one in the heading frame waits for the control step it starts at and is turned then by
-    the base's yaw in that state (:meth:`krl.sim.pushes.Push.turned`), the yaw ``push_heading`` records."""
-    pending = [] if push is None else [push]
-
-    def schedule(state: RobotState) -> None:
-        if pending and (not in_heading_frame or sim.step_count >= pending[0].start_step):
-            due = pending.pop()
-            sim.push(due.turned(float(state.rpy[2])) if in_heading_frame else due)
-
-    return schedule
 
 
 # --- the push sweep (thesis Section 5.3) ---------------------------------------------------------

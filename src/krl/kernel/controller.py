@@ -21,7 +21,7 @@ from krl.kernel.features import HISTORY, features_from_columns, input_names
 from krl.kernel.model import Kernel
 from krl.kernel.settings import training_settings
 from krl.robots.a1.constants import NUM_LEGS
-from krl.sim.robot import RobotState
+from krl.sim.state import RobotState
 
 
 class KernelController:

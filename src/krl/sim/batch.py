@@ -1,158 +1,366 @@
-"""N simulated A1s stepped together, and their states as arrays with a leading robot axis.
+"""N simulated A1s, each on its own terrain, stepped together: the one owner of MuJoCo's data in krl.
 
-:class:`SimBatch` holds one :class:`krl.sim.robot.A1Sim` per robot (each on its own model, so terrains
-can differ) and steps them one after the other in this process, the physics of each exactly as
-:meth:`krl.sim.robot.A1Sim.step` runs it: a step of the batch is bit-identical to stepping N single
-simulators, which is what lets the residual agent's batched environment promise the transitions of N
-single environments. Around the physics the batch works on all N at once: the motor envelope, and the
-state readout, which gathers each robot's ``MjData`` arrays into ``(N, ...)`` arrays and computes the
-:class:`StateBatch` from them with the single robot's own :func:`krl.sim.robot.state_fields`.
-Everything downstream (kernel, filter, IK, observation, reward) then works on :class:`StateBatch` arrays
-as well. ``benchmarks/README.md`` records why this was preferred over ``mujoco.batch.Batch``.
+:class:`SimBatch` holds one ``MjModel``/``MjData`` pair per robot (the models are private copies, because
+the PD gains and the motor envelope are written into them every step; so terrain, ground friction, gains
+and pushes are each robot's own) and is the only code in krl that writes ``MjData``. One
+:meth:`SimBatch.step` is one 200 Hz control step of every robot: it writes the joint commands into the
+actuators (``ctrl = kp * q_target + tau_ff`` with ``kp``/``kd`` in the actuators' bias parameters, so MuJoCo
+evaluates ``tau = kp (q_target - q) - kd q̇ + tau_ff`` at every 1 ms physics step), runs the five physics
+steps in one ``mj_step`` call (a pending push acts on the trunk), refreshes positions (``mj_kinematics``,
+``mj_comPos``) and reads every robot's state out at once into a :class:`krl.sim.state.StateBatch`
+(:func:`krl.sim.state.state_fields` on ``(N, ...)`` copies of the ``MjData`` arrays). The physics runs one
+robot after the other in this process; the motor envelope and the readout are computed for all N together.
+A single robot is the batch of one (:class:`krl.sim.robot.A1Sim`).
+
+The public interface (``reset``/``set_state``/``push``/``replace`` of one robot, ``step`` of ``(N, 12)``
+commands returning a ``StateBatch``, ``states``, ``unstable``, ``step_counts``) is the seam where a GPU
+backend (MuJoCo Warp: all N robots in one kernel launch) would go: nothing outside this module sees how the
+physics is stepped. ``benchmarks/README.md`` records why the CPU batch keeps one ``MjData`` per robot rather
+than ``mujoco.batch.Batch``.
 """
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
 
 import mujoco
 import numpy as np
 
-from krl.robots.a1.constants import NUM_JOINTS
+from krl.robots.a1.constants import (
+    FOOT_NAMES,
+    JOINT_NAMES,
+    KD,
+    KP,
+    MOTOR_FULL_TORQUE_SPEED,
+    MOTOR_MAX_SPEED,
+    MOTOR_TORQUE_LIMIT,
+    NUM_JOINTS,
+    STANDING_HEIGHT,
+    STANDING_JOINT_ANGLES,
+)
 from krl.sim.model import BuiltModel
-from krl.sim.robot import A1Sim, RobotState, SimulationUnstableError, _torque_bounds_into, state_fields
-from krl.util.timing import CONTROL_DT
+from krl.sim.pushes import Push
+from krl.sim.state import FIELD_NAMES, RobotState, StateBatch, state_fields
+from krl.sim.terrains import Terrain
+from krl.util.timing import CONTROL_DT, SUBSTEPS
+
+_BAD_QPOS = int(mujoco.mjtWarning.mjWARN_BADQPOS)
+_BAD_QVEL = int(mujoco.mjtWarning.mjWARN_BADQVEL)
+_BAD_QACC = int(mujoco.mjtWarning.mjWARN_BADQACC)
+
+SPAWN_CLEARANCE: float = 0.01
+"""Height added above the standing height at reset so the feet start just above the ground [m]."""
 
 
-@dataclass(slots=True)
-class StateBatch:
-    """The fields of :class:`krl.sim.robot.RobotState` for N robots, each with a leading axis of N.
+class SimulationUnstableError(RuntimeError):
+    """The physics diverged (non-finite or exploding state); the episode cannot go on."""
 
-    Shapes: ``time`` (N,), ``base_pos`` (N, 3), ``base_quat`` (N, 4), ``base_rot`` (N, 3, 3), ``rpy``
-    (N, 3), ``projected_gravity``/``lin_vel_*``/``ang_vel_*``/``com`` (N, 3), ``joint_*`` (N, 12),
-    ``foot_pos_*`` (N, 4, 3), ``foot_force``/``foot_contact`` (N, 4), ``trunk_contact``/``fallen`` (N,).
-    Units and frames as in :class:`krl.sim.robot.RobotState`.
+
+def motor_torque_bounds(joint_vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Torque-speed envelope of the A1 motor: (lower, upper) output torque [N·m] at joint speeds [rad/s].
+
+    Braking (torque against the motion) always has the full ``MOTOR_TORQUE_LIMIT``. Motoring (torque
+    along the motion) has the full limit up to ``MOTOR_FULL_TORQUE_SPEED`` and falls linearly to zero
+    at ``MOTOR_MAX_SPEED``. Shapes: like ``joint_vel``.
     """
+    upper = np.empty_like(joint_vel, dtype=float)
+    lower = np.empty_like(joint_vel, dtype=float)
+    _torque_bounds_into(np.asarray(joint_vel, dtype=float), lower, upper)
+    return lower, upper
 
-    time: np.ndarray
-    base_pos: np.ndarray
-    base_quat: np.ndarray
-    base_rot: np.ndarray
-    rpy: np.ndarray
-    projected_gravity: np.ndarray
-    lin_vel_world: np.ndarray
-    lin_vel_base: np.ndarray
-    ang_vel_world: np.ndarray
-    ang_vel_base: np.ndarray
-    joint_pos: np.ndarray
-    joint_vel: np.ndarray
-    joint_torque: np.ndarray
-    foot_pos_world: np.ndarray
-    foot_pos_base: np.ndarray
-    foot_force: np.ndarray
-    foot_contact: np.ndarray
-    com: np.ndarray
-    trunk_contact: np.ndarray
-    fallen: np.ndarray
 
-    @classmethod
-    def from_states(cls, states: Sequence[RobotState]) -> StateBatch:
-        """Stack single states (in order) into a batch."""
-        return cls(*(np.array([getattr(s, name) for s in states]) for name in _FIELD_NAMES))
+_ENVELOPE_SLOPE = MOTOR_TORQUE_LIMIT / (MOTOR_MAX_SPEED - MOTOR_FULL_TORQUE_SPEED)
 
-    def __len__(self) -> int:
-        return len(self.time)
 
-    def rows(self, index: np.ndarray | slice) -> StateBatch:
-        """The robots ``index`` selects (an index array or a slice), as a new batch of copies."""
-        return StateBatch(*(np.array(getattr(self, name)[index]) for name in _FIELD_NAMES))
+def _torque_bounds_into(joint_vel: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+    # upper = limit * clip((v_max - v) / (v_max - v_full), 0, 1): for v <= v_full this is the full
+    # limit, so no case split on the sign of v is needed (and likewise for lower with -v).
+    # (np.minimum/np.maximum with out= are several times cheaper than np.clip on 12 values.)
+    np.subtract(MOTOR_MAX_SPEED, joint_vel, out=upper)
+    np.multiply(upper, _ENVELOPE_SLOPE, out=upper)
+    np.maximum(upper, 0.0, out=upper)
+    np.minimum(upper, MOTOR_TORQUE_LIMIT, out=upper)
+    np.add(MOTOR_MAX_SPEED, joint_vel, out=lower)
+    np.multiply(lower, -_ENVELOPE_SLOPE, out=lower)
+    np.minimum(lower, 0.0, out=lower)
+    np.maximum(lower, -MOTOR_TORQUE_LIMIT, out=lower)
 
-    def row(self, index: int) -> RobotState:
-        """Robot ``index`` as a single state (copies of its rows)."""
-        values = {name: getattr(self, name)[index] for name in _FIELD_NAMES}
-        return RobotState(
-            **{name: value.copy() for name, value in values.items() if isinstance(value, np.ndarray)},
-            time=float(values["time"]),
-            trunk_contact=bool(values["trunk_contact"]),
-            fallen=bool(values["fallen"]),
+
+class _Robot:
+    """One robot's MuJoCo model and data, the views into them a step uses, its gains, clock and push."""
+
+    def __init__(self, built: BuiltModel) -> None:
+        self.model = copy.copy(built.model)
+        self.terrain = built.terrain
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self.trunk = m.body("trunk").id
+        self.foot_sites = np.array([m.site(name).id for name in FOOT_NAMES])
+        self.foot_sensor_adr = np.array([m.sensor_adr[m.sensor(name).id] for name in FOOT_NAMES])
+        self.trunk_sensor_adr = int(m.sensor_adr[m.sensor("trunk_contact").id])
+        actuator_ids = [m.actuator(name).id for name in JOINT_NAMES]
+        if actuator_ids != list(range(NUM_JOINTS)):
+            raise RuntimeError("A1 model: actuators must be the first 12, in krl joint order")
+        joint_qpos = [m.jnt_qposadr[m.joint(name).id] for name in JOINT_NAMES]
+        if joint_qpos != list(range(7, 7 + NUM_JOINTS)):
+            raise RuntimeError("A1 model: joint qpos must follow the free joint, in krl joint order")
+        self.bias = m.actuator_biasprm[:NUM_JOINTS]
+        self.forcerange = m.actuator_forcerange[:NUM_JOINTS]
+        """The actuators' force ranges, (lower, upper) [N·m]: the motor envelope writes them in place."""
+        self.kp = KP.copy()
+        self.kd = KD.copy()
+        self.write_gains()
+        self.warning_counts = self.data.warning.number  # a view into MjData
+        self.step = 0
+        self.push: Push | None = None
+        # views into MjData read after every step (MjData's attributes make a new array on every access)
+        self.ctrl = self.data.ctrl[:NUM_JOINTS]
+        self.qpos = self.data.qpos[:19]
+        self.qvel = self.data.qvel[:18]
+        self.site_xpos = self.data.site_xpos
+        self.sensordata = self.data.sensordata
+        self.actuator_force = self.data.actuator_force[:NUM_JOINTS]
+        self.trunk_com = self.data.subtree_com[self.trunk]
+
+    def readout_layout(self) -> tuple[int, int, tuple[list[int], list[int], int]]:
+        """The first foot site and the first of the touch sensors in the model, and the feet's and the
+        sensors' places from there: ``(foot sites, foot sensors, trunk sensor)`` (other sites, e.g. a
+        course's markers, may come before the robot's)."""
+        site_start = int(self.foot_sites.min())
+        sensor_start = int(min(self.foot_sensor_adr.min(), self.trunk_sensor_adr))
+        layout = (
+            [int(i) - site_start for i in self.foot_sites],
+            [int(i) - sensor_start for i in self.foot_sensor_adr],
+            self.trunk_sensor_adr - sensor_start,
         )
+        return site_start, sensor_start, layout
 
+    def reset(self, xy: tuple[float, float] | None, yaw: float, joint_angles: np.ndarray | None) -> None:
+        mujoco.mj_resetData(self.model, self.data)
+        x, y = self.terrain.spawn_xy if xy is None else xy
+        ground = float(np.asarray(self.terrain.height(np.array([x]), np.array([y])))[0])
+        angles = STANDING_JOINT_ANGLES if joint_angles is None else joint_vector(joint_angles, "joint_angles")
+        qpos = self.data.qpos
+        qpos[0:3] = (x, y, ground + STANDING_HEIGHT + SPAWN_CLEARANCE)
+        qpos[3:7] = (np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2))
+        qpos[7:19] = angles
+        self.step = 0
+        self.push = None
+        self.kp[:] = KP
+        self.kd[:] = KD
+        self.write_gains()
+        self.data.ctrl[:NUM_JOINTS] = self.kp * angles
+        mujoco.mj_forward(self.model, self.data)
 
-_FIELD_NAMES: tuple[str, ...] = tuple(f.name for f in fields(RobotState))
-if _FIELD_NAMES != tuple(f.name for f in fields(StateBatch)):  # pragma: no cover - a guard for editors
-    raise RuntimeError("StateBatch must list RobotState's fields in RobotState's order")
+    def set_gains(self, kp: np.ndarray, kd: np.ndarray) -> None:
+        if not (np.array_equal(kp, self.kp) and np.array_equal(kd, self.kd)):
+            self.kp[:] = kp
+            self.kd[:] = kd
+            self.write_gains()
 
+    def write_gains(self) -> None:
+        self.bias[:, 1] = -self.kp
+        self.bias[:, 2] = -self.kd
 
-def _readout_layout(sim: A1Sim) -> tuple[int, int, tuple[list[int], list[int], int]]:
-    """The first foot site and the first of the touch sensors in ``sim``'s model, and the feet's and the
-    sensors' places from there: ``(foot sites, foot sensors, trunk sensor)`` (other sites, e.g. a course's
-    markers, may come before the robot's)."""
-    site_start = int(sim._foot_sites.min())
-    sensor_start = int(min(sim._foot_sensor_adr.min(), sim._trunk_sensor_adr))
-    layout = (
-        [int(i) - site_start for i in sim._foot_sites],
-        [int(i) - sensor_start for i in sim._foot_sensor_adr],
-        sim._trunk_sensor_adr - sensor_start,
-    )
-    return site_start, sensor_start, layout
+    def physics_step(self, base_pos: np.ndarray, base_rot: np.ndarray) -> None:
+        """The physics of one control step once the actuators hold the command and the motor envelope:
+        the five physics steps (with the pending push), the stability check and the kinematics the
+        readout needs. ``base_pos`` [m] (shape (3,)) and ``base_rot`` (shape (3, 3)): the trunk's pose
+        before the step, as the last readout gave it; a push acts there. Raises
+        :class:`SimulationUnstableError`."""
+        push = self.push
+        if push is not None and push.active_at(self.step):
+            self.step_pushed(push, base_pos, base_rot)
+        else:
+            mujoco.mj_step(self.model, self.data, nstep=SUBSTEPS)
+        self.step += 1
+        if push is not None and self.step >= push.start_step + push.num_steps:
+            self.push = None
+        self.check_stable()
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_comPos(self.model, self.data)
+
+    def step_pushed(self, push: Push, base_pos: np.ndarray, base_rot: np.ndarray) -> None:
+        d = self.data
+        point_world = base_pos + base_rot @ push.point
+        torque = np.cross(point_world - d.xipos[self.trunk], push.force)
+        d.xfrc_applied[self.trunk, :3] = push.force
+        d.xfrc_applied[self.trunk, 3:] = torque
+        if push.mode == "continuous":
+            mujoco.mj_step(self.model, d, nstep=SUBSTEPS)
+            d.xfrc_applied[self.trunk] = 0.0
+        else:
+            mujoco.mj_step(self.model, d, nstep=1)
+            d.xfrc_applied[self.trunk] = 0.0
+            mujoco.mj_step(self.model, d, nstep=SUBSTEPS - 1)
+
+    def check_stable(self) -> None:
+        # MuJoCo counts non-finite or huge qpos/qvel/qacc in its warning statistics (the model disables
+        # its automatic reset, so the diverged state stays visible); the counters are zeroed by reset().
+        counts = self.warning_counts
+        if counts[_BAD_QPOS] or counts[_BAD_QVEL] or counts[_BAD_QACC]:
+            start = (self.step - 1) * CONTROL_DT
+            raise SimulationUnstableError(
+                f"simulation became unstable in the control step starting at t={start:.3f} s on terrain "
+                f"'{self.terrain.name}' (MuJoCo reported a non-finite or huge qpos/qvel/qacc)"
+            )
+
+    def read_state(self) -> RobotState:
+        qpos = self.qpos.copy()
+        rot = np.empty(9)
+        mujoco.mju_quat2Mat(rot, qpos[3:7])
+        sensors = self.sensordata
+        *fields, trunk_contact, fallen = state_fields(
+            self.step * CONTROL_DT,
+            qpos,
+            self.qvel.copy(),
+            rot,
+            self.site_xpos[self.foot_sites],
+            sensors[self.foot_sensor_adr],
+            sensors[self.trunk_sensor_adr],
+            self.actuator_force.copy(),
+            self.trunk_com.copy(),
+        )
+        return RobotState(*fields, trunk_contact=bool(trunk_contact), fallen=bool(fallen))
 
 
 class SimBatch:
-    """N simulators stepped together.
+    """N simulated A1s stepped together.
 
-    The batch keeps the robots' states (:attr:`states`): step and reset its simulators through
-    :meth:`step` and :meth:`reset` only (pushes may be scheduled on them directly).
+    The batch keeps the robots' states (:attr:`states`); every change of a robot goes through its methods.
+    ``model(i)`` and ``data(i)`` hand robot ``i``'s MuJoCo structures out for reading (rendering, analysis).
 
     Args:
-        models: one compiled model per robot (:func:`krl.sim.model.build_model`).
+        models: one compiled model per robot (:func:`krl.sim.model.build_model`); each robot simulates a
+            private copy.
+        motor_envelope: limit motoring torque with speed (:func:`motor_torque_bounds`), updated once per
+            control step; when False only the constant ±``MOTOR_TORQUE_LIMIT`` clamp applies.
     """
 
-    def __init__(self, models: Sequence[BuiltModel]) -> None:
+    def __init__(self, models: Sequence[BuiltModel], motor_envelope: bool = True) -> None:
         if not models:
             raise ValueError("a simulator batch needs at least one model")
-        self.sims = [A1Sim(built) for built in models]
-        self._layout = _readout_layout(self.sims[0])[2]
+        self.motor_envelope = motor_envelope
+        self._robots = [_Robot(built) for built in models]
+        self._layout = self._robots[0].readout_layout()[2]
         """Where the readout finds the feet in the ``site_xpos`` rows it copies, and the feet's and the
         trunk's touch sensors in the ``sensordata`` it copies: the same in every A1 model."""
-        self._views = [self._readout_views(sim) for sim in self.sims]
-        self.unstable = np.zeros(len(self.sims), dtype=bool)
-        """Robots whose physics diverged in the last :meth:`step`."""
-        self._states = StateBatch.from_states([sim.state for sim in self.sims])
+        self._views = [self._readout_views(robot) for robot in self._robots]
+        self.unstable = np.zeros(len(self._robots), dtype=bool)
+        """Robots whose physics diverged in the last :meth:`step`. Shape: (N,), bool."""
+        self._errors: list[SimulationUnstableError | None] = [None] * len(self._robots)
+        for robot in self._robots:
+            robot.reset(None, 0.0, None)
+        self._states = StateBatch.from_states([robot.read_state() for robot in self._robots])
 
     def __len__(self) -> int:
-        return len(self.sims)
+        return len(self._robots)
 
-    def _readout_views(self, sim: A1Sim) -> tuple[np.ndarray, ...]:
-        """The views into ``sim``'s MjData a step reads: qpos, qvel, foot sites, sensors, torques, CoM."""
-        site_start, sensor_start, layout = _readout_layout(sim)
+    def _readout_views(self, robot: _Robot) -> tuple[np.ndarray, ...]:
+        """The views into ``robot``'s MjData a step reads: qpos, qvel, foot sites, sensors, torques, CoM."""
+        site_start, sensor_start, layout = robot.readout_layout()
         if layout != self._layout:
             raise ValueError("a simulator batch needs models whose A1 sites and sensors lie alike")
         feet, foot_sensors, trunk_sensor = layout
-        sites = sim._site_xpos[site_start : site_start + max(feet) + 1]
-        sensors = sim._sensordata[sensor_start : sensor_start + max(*foot_sensors, trunk_sensor) + 1]
-        return sim._qpos, sim._qvel, sites, sensors, sim._actuator_force, sim._trunk_com
+        sites = robot.site_xpos[site_start : site_start + max(feet) + 1]
+        sensors = robot.sensordata[sensor_start : sensor_start + max(*foot_sensors, trunk_sensor) + 1]
+        return robot.qpos, robot.qvel, sites, sensors, robot.actuator_force, robot.trunk_com
 
-    def replace(self, index: int, built: BuiltModel) -> None:
-        """Put robot ``index`` on another model (a new terrain); reset it afterwards."""
-        sim = A1Sim(built)
-        self._views[index] = self._readout_views(sim)
-        self.sims[index] = sim
-        self._reload(index)
+    # --- one robot ---------------------------------------------------------------------------------
 
-    def reset(self, index: int, xy: tuple[float, float] | None = None, yaw: float = 0.0) -> RobotState:
-        """Reset robot ``index`` (:meth:`krl.sim.robot.A1Sim.reset`)."""
-        state = self.sims[index].reset(xy=xy, yaw=yaw)
-        self._reload(index)
-        return state
+    def model(self, index: int) -> mujoco.MjModel:
+        """Robot ``index``'s model (its private copy), for reading."""
+        return self._robots[index].model
 
-    def _reload(self, index: int) -> None:
-        """Take robot ``index``'s state from its simulator (after a reset) into a new :attr:`states`."""
+    def data(self, index: int) -> mujoco.MjData:
+        """Robot ``index``'s ``MjData``, for reading (rendering, analysis)."""
+        return self._robots[index].data
+
+    def terrain(self, index: int) -> Terrain:
+        """The terrain robot ``index`` stands on."""
+        return self._robots[index].terrain
+
+    @property
+    def step_counts(self) -> np.ndarray:
+        """Control steps of each robot since its last reset. Shape: (N,), int."""
+        return np.array([robot.step for robot in self._robots])
+
+    def replace(self, index: int, built: BuiltModel) -> RobotState:
+        """Put robot ``index`` on another model (a new terrain), at rest at its spawn point; returns its
+        state."""
+        robot = _Robot(built)
+        robot.reset(None, 0.0, None)
+        self._views[index] = self._readout_views(robot)
+        self._robots[index] = robot
+        return self._reload(index)
+
+    def reset(
+        self,
+        index: int,
+        xy: tuple[float, float] | None = None,
+        yaw: float = 0.0,
+        joint_angles: np.ndarray | None = None,
+    ) -> RobotState:
+        """Put robot ``index`` at rest at ``xy`` (default: the terrain's spawn point) facing ``yaw`` [rad];
+        returns its state.
+
+        The base is placed ``STANDING_HEIGHT + SPAWN_CLEARANCE`` above the terrain's rest height, with the
+        joints at ``joint_angles`` (default: standing pose, shape (12,)); props return to rest, the clock
+        to zero, the gains to Table 4.2, and a pending push is dropped.
+        """
+        self._robots[index].reset(xy, yaw, joint_angles)
+        return self._reload(index)
+
+    def set_state(self, index: int, qpos: np.ndarray, qvel: np.ndarray) -> RobotState:
+        """Put robot ``index`` in the state ``qpos`` (the free joint, then the 12 joints; shape (19,)) and
+        ``qvel`` (shape (18,)), keeping its clock, gains and pending push; returns its readout (after
+        ``mj_forward``). The next :meth:`step` starts from it."""
+        qpos, qvel = np.asarray(qpos, dtype=float), np.asarray(qvel, dtype=float)
+        if qpos.shape != (19,) or qvel.shape != (18,):
+            raise ValueError(
+                f"qpos and qvel must have shapes (19,) and (18,), got {qpos.shape}, {qvel.shape}"
+            )
+        robot = self._robots[index]
+        robot.qpos[:] = qpos
+        robot.qvel[:] = qvel
+        mujoco.mj_forward(robot.model, robot.data)
+        return self._reload(index)
+
+    def push(self, index: int, push: Push) -> None:
+        """Schedule ``push`` on robot ``index`` (replacing any pending one); it acts from its start on."""
+        robot = self._robots[index]
+        if push.start_step + push.num_steps <= robot.step:
+            now = robot.step * CONTROL_DT
+            raise ValueError(f"push at t={push.start_time:.3f} s is already over (now t={now:.3f} s)")
+        robot.push = push
+
+    def pending_push(self, index: int) -> Push | None:
+        """Robot ``index``'s scheduled or active push, if any."""
+        return self._robots[index].push
+
+    def divergence(self, index: int) -> SimulationUnstableError | None:
+        """Why robot ``index`` is flagged in :attr:`unstable` (its physics diverged in the last step), or
+        None."""
+        return self._errors[index]
+
+    def read_state(self, index: int) -> RobotState:
+        """Robot ``index``'s state read from its ``MjData`` now, by the one-robot readout (what
+        :attr:`states` holds for it, bit for bit, unless it diverged)."""
+        return self._robots[index].read_state()
+
+    def _reload(self, index: int) -> RobotState:
+        """Read robot ``index``'s state (after a reset) into a new :attr:`states`; returns it."""
         states = self._states.rows(slice(None))
-        state = self.sims[index].state
-        for name in _FIELD_NAMES:
+        state = self._robots[index].read_state()
+        for name in FIELD_NAMES:
             getattr(states, name)[index] = getattr(state, name)
         self._states = states
+        self.unstable[index] = False
+        self._errors[index] = None
+        return state
+
+    # --- all robots --------------------------------------------------------------------------------
 
     @property
     def states(self) -> StateBatch:
@@ -160,38 +368,75 @@ class SimBatch:
         treat it as read-only."""
         return self._states
 
-    def step(self, q_target: np.ndarray) -> StateBatch:
-        """One control step of every robot with joint-angle targets [rad] (shape (N, 12)) and the Table 4.2
-        PD.
+    def step(
+        self,
+        q_target: np.ndarray,
+        kp: np.ndarray | None = None,
+        kd: np.ndarray | None = None,
+        tau_ff: np.ndarray | None = None,
+        raise_on_divergence: bool = False,
+    ) -> StateBatch:
+        """One control step (5 physics steps of 1 ms) of every robot with a hybrid joint command.
 
-        Each robot's physics is :meth:`krl.sim.robot.A1Sim.step`'s (its pushes included); the motor
-        envelope and the readout are computed for all N at once. A robot whose physics diverges
-        (:class:`krl.sim.robot.SimulationUnstableError`) keeps its last state, marked fallen, and is
-        flagged in :attr:`unstable` until the next step; reset it. Raises ``ValueError`` for a
-        wrong-shaped or non-finite ``q_target``.
+        Args:
+            q_target: joint angle targets [rad]. Shape: (N, 12).
+            kp: per-joint stiffness [N·m/rad], shape (N, 12); 0 makes a joint torque-controlled.
+            kd: per-joint damping [N·m·s/rad], shape (N, 12). When either is given the other defaults to
+                Table 4.2; when neither is, each robot keeps the gains it had (Table 4.2 after a reset).
+            tau_ff: feed-forward torques [N·m], shape (N, 12); default zero.
+            raise_on_divergence: raise the first diverged robot's :class:`SimulationUnstableError` after
+                the step, instead of only flagging it.
+
+        A robot whose physics diverges keeps its last state, marked fallen, and is flagged in
+        :attr:`unstable` until it is reset or set. Raises ``ValueError`` for a wrong-shaped, non-finite or
+        (gains) negative command.
         """
-        q_target = np.asarray(q_target, dtype=float)
-        n = len(self.sims)
-        if q_target.shape != (n, NUM_JOINTS):
-            raise ValueError(f"q_target must have shape ({n}, 12), got {q_target.shape}")
-        if not np.isfinite(q_target).all():
-            raise ValueError("q_target contains non-finite values")
+        n = len(self._robots)
+        q_target = joint_rows(q_target, n, "q_target")
+        if kp is not None or kd is not None:
+            kp = np.broadcast_to(KP, (n, NUM_JOINTS)) if kp is None else joint_rows(kp, n, "kp")
+            kd = np.broadcast_to(KD, (n, NUM_JOINTS)) if kd is None else joint_rows(kd, n, "kd")
+            if np.any(kp < 0) or np.any(kd < 0):
+                raise ValueError("kp and kd must be >= 0")
+            for robot, robot_kp, robot_kd in zip(self._robots, kp, kd, strict=True):
+                robot.set_gains(robot_kp, robot_kd)
+        if tau_ff is not None:
+            tau_ff = joint_rows(tau_ff, n, "tau_ff")
         previous = self._states
-        joint_vel = np.array([sim._qvel[6 : 6 + NUM_JOINTS] for sim in self.sims])  # [rad/s]
-        bounds = np.empty((n, NUM_JOINTS, 2))  # the actuators' force ranges, (lower, upper) [N·m]
-        _torque_bounds_into(joint_vel, bounds[..., 0], bounds[..., 1])
+        self._physics(q_target, tau_ff, previous)
+        self._states = states = self._readout(previous)
+        if raise_on_divergence and self.unstable.any():
+            raise self.divergence(int(np.flatnonzero(self.unstable)[0]))
+        return states
+
+    def _physics(self, q_target: np.ndarray, tau_ff: np.ndarray | None, previous: StateBatch) -> None:
+        """Every robot's actuators, motor envelope and physics for one control step (a diverged robot is
+        flagged in :attr:`unstable`)."""
+        n = len(self._robots)
+        lower, upper = np.empty((n, NUM_JOINTS)), np.empty((n, NUM_JOINTS))  # force ranges [N·m]
+        if self.motor_envelope:
+            joint_vel = np.array([robot.qvel[6 : 6 + NUM_JOINTS] for robot in self._robots])  # [rad/s]
+            _torque_bounds_into(joint_vel, lower, upper)
         self.unstable[:] = False
-        for index, (sim, q) in enumerate(zip(self.sims, q_target, strict=True)):
-            np.multiply(sim._kp, q, out=sim._ctrl)
-            if sim.motor_envelope:
-                sim._forcerange[:] = bounds[index]
+        for index, robot in enumerate(self._robots):
+            np.multiply(robot.kp, q_target[index], out=robot.ctrl)
+            if tau_ff is not None:
+                robot.ctrl += tau_ff[index]
+            if self.motor_envelope:
+                robot.forcerange[:, 0] = lower[index]
+                robot.forcerange[:, 1] = upper[index]
             try:
-                sim._physics_step(previous.base_pos[index], previous.base_rot[index])
-            except SimulationUnstableError:
+                robot.physics_step(previous.base_pos[index], previous.base_rot[index])
+            except SimulationUnstableError as error:
                 self.unstable[index] = True
-                sim._state = previous.row(index)
+                self._errors[index] = error
             else:
-                sim._state = None  # read from its MjData when asked for
+                self._errors[index] = None
+
+    def _readout(self, previous: StateBatch) -> StateBatch:
+        """The robots' states from their ``MjData`` after a step (a diverged robot's: its previous state,
+        marked fallen)."""
+        n = len(self._robots)
         # what the robots' MjData hold after the step (zero where a robot diverged: its last state is kept)
         qpos, qvel, sites, sensors, torque, com = (
             np.array(views) for views in zip(*self._views, strict=True)
@@ -206,7 +451,7 @@ class SimBatch:
         feet, foot_sensors, trunk_sensor = self._layout
         states = StateBatch(
             *state_fields(
-                np.array([sim._step for sim in self.sims]) * CONTROL_DT,
+                self.step_counts * CONTROL_DT,
                 qpos,
                 qvel,
                 rot,
@@ -218,8 +463,27 @@ class SimBatch:
             )
         )
         for index in diverged:
-            for name in _FIELD_NAMES:
+            for name in FIELD_NAMES:
                 getattr(states, name)[index] = getattr(previous, name)[index]
             states.fallen[index] = True
-        self._states = states
         return states
+
+
+def joint_vector(value: np.ndarray, name: str) -> np.ndarray:
+    """``value`` as a finite float vector of the 12 joints, or ``ValueError`` naming ``name``."""
+    array = np.asarray(value, dtype=float)
+    if array.shape != (NUM_JOINTS,):
+        raise ValueError(f"{name} must have shape (12,), got {array.shape}")
+    if not np.isfinite(array).all():
+        raise ValueError(f"{name} contains non-finite values")
+    return array
+
+
+def joint_rows(value: np.ndarray, n: int, name: str) -> np.ndarray:
+    """``value`` as finite float rows of the 12 joints for ``n`` robots, or ``ValueError`` naming ``name``."""
+    array = np.asarray(value, dtype=float)
+    if array.shape != (n, NUM_JOINTS):
+        raise ValueError(f"{name} must have shape ({n}, 12), got {array.shape}")
+    if not np.isfinite(array).all():
+        raise ValueError(f"{name} contains non-finite values")
+    return array

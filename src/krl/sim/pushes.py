@@ -208,14 +208,39 @@ class PushSchedule:
     def __post_init__(self) -> None:
         self._next_time = float(self.rng.uniform(*self.distribution.interval))
 
-    def due(self, time: float) -> Push | None:
-        """The push to start now if the next push time has come, else None. Call once per control step."""
+    def due(self, time: float, heading: float = 0.0) -> Push | None:
+        """The push to start at ``time`` [s] if the next push time has come, else None. Call once per
+        control step. ``heading``, the base's [rad], is not used: these pushes are drawn in the world frame
+        (:class:`krl.task.episode.PushEvents`)."""
         if time + 1e-9 < self._next_time:
             return None
         push = self.distribution.sample(self.rng, start_time=time)
         self.pushes.append(push)
         self._next_time = time + float(self.rng.uniform(*self.distribution.interval))
         return push
+
+
+@dataclass
+class OnePush:
+    """A single push (the push sweep's) as push events (:class:`krl.task.episode.PushEvents`): in the world
+    frame it is scheduled at the first control step (it acts from its own start on); in the heading frame
+    (x forward, y left) it waits for the control step it starts at and is turned then by the base's heading
+    (:meth:`Push.turned`)."""
+
+    push: Push
+    in_heading_frame: bool = False
+    scheduled: bool = False
+    """Whether :meth:`due` has given the push out."""
+
+    def due(self, time: float, heading: float) -> Push | None:
+        """The push to schedule before the control step starting at ``time`` [s], with the base heading
+        ``heading`` [rad] then, or None."""
+        if self.scheduled:
+            return None
+        if self.in_heading_frame and round(time / CONTROL_DT) < self.push.start_step:
+            return None
+        self.scheduled = True
+        return self.push.turned(heading) if self.in_heading_frame else self.push
 
 
 def scripted_push(

@@ -348,8 +348,8 @@ def reward_terms(
     Args:
         reward: the reward function.
         command: the velocity command of the step (v_x, v_y, ω_z) [m/s, m/s, rad/s]. Shape: (3,) or (N, 3).
-        state: the robot's state after the step: a :class:`krl.sim.robot.RobotState`, or a
-            :class:`krl.sim.batch.StateBatch` of N robots.
+        state: the robot's state after the step: a :class:`krl.sim.state.RobotState`, or a
+            :class:`krl.sim.state.StateBatch` of N robots.
         target_distance: planar distance from the base to the current waypoint after the step [m].
             A float, or shape (N,).
         reached: the step brought the robot within D_min of its waypoint. A bool, or shape (N,).

@@ -1,13 +1,17 @@
-"""Walking a controller to waypoints (or at a fixed command) in the simulator.
+"""Walking one controller to waypoints (or at a fixed command) in one simulator.
 
-Shared by ``krl expert run``, data collection, the kernel and the evaluation courses: each control step
-the waypoint task (:class:`krl.task.waypoints.WaypointTask`: the command generator of Algorithm 2 and the
-D_min and time-limit rules) turns the current waypoint into a velocity command, the controller turns it
-into a joint command, and the simulator steps.
+Shared by ``krl expert run``, data collection, the kernel and the evaluation courses. :class:`Runner`
+walks a single robot through the one episode loop (:class:`krl.task.episode.EpisodeBatch`, the loop
+training runs too): each control step the task (:class:`krl.task.waypoints.WaypointTask`: the command
+generator of Algorithm 2 and the D_min and time-limit rules; or :class:`HoldTask`, a fixed command) gives
+the velocity command, the controller turns it into a joint command, and the loop pushes, steps, scores
+and ends the walk.
 """
 
 from __future__ import annotations
 
+import itertools
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -18,10 +22,12 @@ from krl.control.commands import CommandGenerator, CommandParams
 from krl.control.frames import realised_velocity
 from krl.control.types import Controller, JointCommand
 from krl.sim.robot import A1Sim, RobotState
+from krl.task.episode import EpisodeBatch, EpisodeStep, PushEvents, RobotTask
+from krl.task.reward import EVALUATION_REWARD, RewardConfig
 from krl.task.waypoints import TARGET_TIME_LIMIT, TaskStatus, WaypointStep, WaypointTask
 from krl.util.timing import CONTROL_DT
 
-__all__ = ["HOLD_RAMP", "HOLD_SETTLE", "RunResult", "Runner", "StepRecord"]
+__all__ = ["HOLD_RAMP", "HOLD_SETTLE", "HoldTask", "RunResult", "Runner", "StepRecord"]
 
 HOLD_RAMP: float = 1.0
 """Default time over which a fixed command rises from zero [s]."""
@@ -67,6 +73,38 @@ class RunResult:
         return [float(v) for v in np.mean(self.realised, axis=0)]
 
 
+class HoldTask:
+    """A fixed velocity command for ``steps`` control steps, rising linearly from zero over the first
+    ``ramp_steps`` (a :class:`krl.task.episode.RobotTask` without waypoints).
+
+    Args:
+        velocity: the command (v_x, v_y, ω_z) [m/s, m/s, rad/s]. Shape: (3,).
+        steps: control steps to hold it.
+        ramp_steps: control steps of the ramp (>= 1).
+    """
+
+    reached_count = 0
+
+    def __init__(self, velocity: np.ndarray, steps: int, ramp_steps: int) -> None:
+        self.velocity = np.asarray(velocity, dtype=float)
+        self.total_steps = steps
+        self.ramp_steps = ramp_steps
+        self.steps = 0
+        """Control steps taken."""
+        self.status = TaskStatus.WALKING
+
+    def command(self, base_xy: np.ndarray, yaw: float) -> np.ndarray | None:
+        """The command of the coming step, None after the last."""
+        if self.steps >= self.total_steps:
+            self.status = TaskStatus.FINISHED
+            return None
+        return self.velocity * min(1.0, (self.steps + 1) / self.ramp_steps)
+
+    def after_step(self, base_xy: np.ndarray) -> WaypointStep:
+        self.steps += 1
+        return WaypointStep(-1, math.nan, False)
+
+
 class Runner:
     """Runs one controller in one simulator.
 
@@ -76,6 +114,7 @@ class Runner:
         command_params: the command generator's limits and target threshold.
         on_step: called after every control step with a :class:`StepRecord`.
         on_target: called with the waypoint index each time a waypoint is reached.
+        reward: the reward terms each step reports to ``on_task_step`` (:meth:`walk_to`).
     """
 
     def __init__(
@@ -85,8 +124,11 @@ class Runner:
         command_params: CommandParams | None = None,
         on_step: Callable[[StepRecord], None] | None = None,
         on_target: Callable[[int], None] | None = None,
+        reward: RewardConfig = EVALUATION_REWARD,
     ) -> None:
         self.sim = sim
+        self.episodes = EpisodeBatch(sim.batch, reward)
+        """The episode loop over the simulator's batch of one."""
         self.controller = controller
         self.command_params = command_params or CommandParams()
         self.on_step = on_step
@@ -111,23 +153,51 @@ class Runner:
     def _start(self, reset: bool, start_pose: tuple[float, float, float] | None = None) -> RobotState:
         return self.start(start_pose) if reset else self.sim.state
 
-    def _step(
+    def _run(
         self,
-        state: RobotState,
-        command: np.ndarray,
-        target_index: int,
-        result: RunResult,
-        record_velocity: bool = True,
-    ) -> StepRecord:
-        joint_command = self.controller.act(state, command)
-        after = self.sim.step(*joint_command)
-        if record_velocity:
-            result.commanded.append(command.copy())
-            result.realised.append(realised_velocity(after))
-        record = StepRecord(state, command, joint_command, after, target_index)
-        if self.on_step is not None:
-            self.on_step(record)
-        return record
+        task: RobotTask,
+        pushes: PushEvents | None = None,
+        on_task_step: Callable[[StepRecord, EpisodeStep], None] | None = None,
+        steady_from: int = 0,
+    ) -> RunResult:
+        """Walk ``task`` through the episode loop (one robot) until it ends; ``steady_from``: the first
+        control step whose velocities the result keeps. Raises the simulator's
+        :class:`krl.sim.robot.SimulationUnstableError` if the physics diverges."""
+        episodes, sim = self.episodes, self.sim
+        started_at = sim.time
+        episodes.start([0], [task], [pushes])
+        result = RunResult()
+        wall = time.perf_counter()
+        reported = 0
+        for k in itertools.count():
+            for index in range(reported, task.reached_count):
+                if self.on_target is not None:
+                    self.on_target(index)
+            reported = task.reached_count
+            if not episodes.active[0]:
+                break
+            state, command = sim.state, episodes.commands[0].copy()
+            joint_command = self.controller.act(state, command)
+            step = episodes.step(
+                *(None if part is None else np.asarray(part)[None] for part in joint_command)
+            )
+            if step.unstable[0]:
+                raise sim.batch.divergence(0)
+            after = sim.state
+            if k >= steady_from:
+                result.commanded.append(command.copy())
+                result.realised.append(realised_velocity(after))
+            record = StepRecord(state, command, joint_command, after, int(step.target[0]))
+            if self.on_step is not None:
+                self.on_step(record)
+            if on_task_step is not None:
+                on_task_step(record, step)
+            result.fell = result.fell or bool(step.fell[0])
+        result.targets_reached = task.reached_count
+        result.timed_out = task.status is TaskStatus.TIMED_OUT and not result.fell
+        result.sim_seconds = sim.time - started_at
+        result.wall_seconds = time.perf_counter() - wall
+        return result
 
     def walk_to(
         self,
@@ -136,7 +206,8 @@ class Runner:
         reset: bool = True,
         start_pose: tuple[float, float, float] | None = None,
         time_limit: float | None = None,
-        on_task_step: Callable[[StepRecord, WaypointStep], None] | None = None,
+        on_task_step: Callable[[StepRecord, EpisodeStep], None] | None = None,
+        pushes: PushEvents | None = None,
     ) -> RunResult:
         """Walk to each waypoint in turn (world (x, y) [m], shape (N, 2)); stop on a fall or time-out.
 
@@ -148,39 +219,17 @@ class Runner:
                 walk can be split into calls, one per waypoint.
             start_pose: (x, y, yaw) [m, m, rad] to reset to; default the terrain's spawn point.
             time_limit: time allowed for the whole call [s] (a course's limit); None: no overall limit.
-            on_task_step: called after every control step (after ``on_step``) with the step and what it
-                did for the task (:class:`krl.task.waypoints.WaypointStep`), e.g. to score it.
+            on_task_step: called after every control step (after ``on_step``) with the step and what the
+                episode loop made of it (:class:`krl.task.episode.EpisodeStep` of one robot: the task's
+                distance and waypoint, the reward terms of ``reward``), e.g. to score it.
+            pushes: when the robot is pushed (:class:`krl.task.episode.PushEvents`); None: never.
         """
         state = self._start(reset, start_pose)
-        started_at = self.sim.time
         task = WaypointTask(
             targets, target_time_limit=target_time_limit, time_limit=time_limit, generator=self.generator
         )
         task.reset(state.base_pos[:2], keep_command=True)
-        result = RunResult()
-        wall = time.perf_counter()
-        reported = 0
-        while True:
-            command = task.command(state.base_pos[:2], state.rpy[2])
-            for index in range(reported, task.reached_count):
-                if self.on_target is not None:
-                    self.on_target(index)
-            reported = task.reached_count
-            if command is None:
-                break
-            record = self._step(state, command, task.index, result)
-            state = record.after
-            step = task.after_step(state.base_pos[:2])
-            if on_task_step is not None:
-                on_task_step(record, step)
-            if state.fallen:
-                result.fell = True
-                break
-        result.targets_reached = task.reached_count
-        result.timed_out = task.status is TaskStatus.TIMED_OUT
-        result.sim_seconds = self.sim.time - started_at
-        result.wall_seconds = time.perf_counter() - wall
-        return result
+        return self._run(task, pushes, on_task_step)
 
     def hold_command(
         self, command: np.ndarray, duration: float, ramp: float = HOLD_RAMP, reset: bool = True
@@ -198,18 +247,7 @@ class Runner:
             raise ValueError(
                 f"duration must exceed ramp + {HOLD_SETTLE} s = {ramp + HOLD_SETTLE} s, got {duration}"
             )
-        state = self._start(reset)
-        started_at = self.sim.time
-        result = RunResult()
-        wall = time.perf_counter()
+        self._start(reset)
         ramp_steps = max(1, round(ramp / CONTROL_DT))
-        steady_from = round((ramp + HOLD_SETTLE) / CONTROL_DT)
-        for k in range(round(duration / CONTROL_DT)):
-            current = command * min(1.0, (k + 1) / ramp_steps)
-            state = self._step(state, current, -1, result, record_velocity=k >= steady_from).after
-            if state.fallen:
-                result.fell = True
-                break
-        result.sim_seconds = self.sim.time - started_at
-        result.wall_seconds = time.perf_counter() - wall
-        return result
+        task = HoldTask(command, round(duration / CONTROL_DT), ramp_steps)
+        return self._run(task, steady_from=round((ramp + HOLD_SETTLE) / CONTROL_DT))

@@ -18,9 +18,9 @@ from krl.agent.config import ResidualConfig
 from krl.agent.residual import ResidualController
 from krl.control.types import JointCommand
 from krl.kernel.registry import load_model
-from krl.sim.batch import StateBatch
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim, RobotState
+from krl.sim.state import StateBatch
 from krl.task.runner import Runner
 
 SWEEP_RANGE: tuple[float, float] = (0.2, 5.0)
