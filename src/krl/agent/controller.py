@@ -48,3 +48,36 @@ class AgentController:
     def last_targets(self) -> np.ndarray:
         """The kernel's foot targets of the last step, base frame [m]. Shape: (4, 3)."""
         return self.residual.kernel_targets[0]
+
+
+class AgentBatchController:
+    """The trained agent driving N robots at once, each exactly as :class:`AgentController` drives it alone:
+    the kernel and the policy run row by row (:func:`krl.util.affine.affine`), everything else batched.
+    What batched evaluation (:mod:`krl.eval.batch`) steps.
+
+    Args:
+        policy: the trained policy.
+        num_robots: N.
+        kernel_path: its kernel file (default: the one its config names; checked by SHA-256).
+    """
+
+    def __init__(self, policy: Policy, num_robots: int, kernel_path: str | None = None) -> None:
+        self.policy = policy
+        path = check_kernel_file(policy, kernel_path, "policy")
+        kernel = load_kernel(path)
+        self.residual = ResidualController(kernel, policy.config.residual, num_robots, rowwise=True)
+        self.features = policy.config.observation.features
+
+    def reset(self, index: int, state: RobotState) -> None:
+        """Start robot ``index``'s new run (from ``state``)."""
+        self.residual.reset([index])
+
+    def act(
+        self, states: StateBatch, commands: np.ndarray, rows: np.ndarray
+    ) -> tuple[JointCommand, dict[int, Exception]]:
+        """Joint targets of every robot (shape (N, 12)) for the velocity commands (shape (N, 3)); the robots
+        of ``rows`` are the ones walking (all N are computed). No robot fails: the second item is empty."""
+        self.residual.prepare(states, commands)
+        observation = observe(self.features, self.residual.observation_inputs(states))
+        action = self.policy.act(observation, rowwise=True)
+        return JointCommand(self.residual.joint_targets(action)), {}

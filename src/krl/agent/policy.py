@@ -24,6 +24,7 @@ import numpy as np
 from krl.agent.config import AgentConfig, AgentConfigError
 from krl.agent.observation import layout, observation_size
 from krl.agent.shipped import SHIPPED_POLICIES
+from krl.util.affine import affine
 from krl.util.hashing import file_sha256
 from krl.util.output import npz_bytes, write_atomic
 
@@ -63,8 +64,9 @@ class Policy:
         scaled = (observation - self.obs_mean) / np.sqrt(self.obs_var + self.obs_epsilon)
         return np.clip(scaled, -self.obs_clip, self.obs_clip)
 
-    def act(self, observation: np.ndarray) -> np.ndarray:
-        """Deterministic actions in [-1, 1] from raw observations. Shapes: (N, D) -> (N, 12)."""
+    def act(self, observation: np.ndarray, rowwise: bool = False) -> np.ndarray:
+        """Deterministic actions in [-1, 1] from raw observations. Shapes: (N, D) -> (N, 12). ``rowwise``:
+        every robot's action computed as if alone (:func:`krl.util.affine.affine`)."""
         x = np.asarray(observation, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != self.observation_size:
             raise ValueError(
@@ -72,7 +74,7 @@ class Policy:
             )
         x = self.normalise(x)
         for index, (weight, bias) in enumerate(self.layers):
-            x = x @ weight.T + bias
+            x = affine(x, weight, bias, rowwise)
             if index < len(self.layers) - 1:
                 x = np.tanh(x)
         return np.clip(x, -1.0, 1.0)

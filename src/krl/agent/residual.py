@@ -49,9 +49,13 @@ class ResidualController:
             heights are those of its training data.
         config: the action path (residual bound, filter α, drives).
         num_robots: N.
+        rowwise: run the kernel on each robot's row alone (:func:`krl.util.affine.affine`), so a robot's
+            targets are those it gets alone (batched evaluation); training batches the rows.
     """
 
-    def __init__(self, kernel: Kernel, config: ResidualConfig, num_robots: int) -> None:
+    def __init__(
+        self, kernel: Kernel, config: ResidualConfig, num_robots: int, rowwise: bool = False
+    ) -> None:
         if kernel.variant not in BATCHABLE_VARIANTS:
             raise ValueError(
                 f"the residual agent runs kernels of the variants {', '.join(BATCHABLE_VARIANTS)}, "
@@ -59,6 +63,7 @@ class ResidualController:
             )
         self.kernel = kernel
         self.config = config
+        self.rowwise = rowwise
         self.parts = action_parts(config, kernel)
         """The action's parts, in order (:mod:`krl.agent.action`)."""
         trained = training_settings(kernel).expert
@@ -148,7 +153,8 @@ class ResidualController:
         self.command[rows] = command
         self.kernel_command[rows] = kernel_command
         self.normalised_phase[rows] = normalised
-        self.kernel_targets[rows] = self.kernel.predict(features).reshape(len(rows), NUM_LEGS, 3)
+        targets = self.kernel.predict(features, self.rowwise)
+        self.kernel_targets[rows] = targets.reshape(len(rows), NUM_LEGS, 3)
 
     def observation_inputs(self, state: StateBatch) -> ObservationInputs:
         """What the observation of the prepared step is computed from."""

@@ -43,6 +43,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 LABEL_HASH_DIGITS: int = 6
 """Hex digits of a user file's SHA-256 in its label when its name is a shipped model's (16.7 million
 values; two files that share them are refused by :func:`distinct_controllers`, not mixed)."""
@@ -132,6 +134,15 @@ class ControllerSpec:
         """A fresh controller for one run (``seed`` selects the per-seed artifact of seeded controllers)."""
         return CONTROLLER_KINDS[self.kind].build(self, seed)
 
+    def build_batch(self, seed: int | None, num_robots: int):
+        """The controller of ``num_robots`` robots that batched evaluation steps (:mod:`krl.eval.batch`):
+        the kind's own batched one (the agents'), else one fresh :meth:`build` per run
+        (:class:`RobotControllers`)."""
+        batched = CONTROLLER_KINDS[self.kind].build_batch
+        if batched is not None:
+            return batched(self, seed, num_robots)
+        return RobotControllers(lambda: self.build(seed), num_robots)
+
     @property
     def title(self) -> str:
         """What reports call this controller."""
@@ -181,6 +192,58 @@ class ControllerKind:
     """``(spec, run seed) -> controller``."""
     title: str
     """Name in reports."""
+    build_batch: Callable[[ControllerSpec, int | None, int], Any] | None = None
+    """``(spec, run seed, N) -> a controller of N robots`` with ``reset(index, state)`` and ``act(states,
+    commands, rows)`` (:class:`RobotControllers`'); None: N single controllers."""
+
+
+class RobotControllers:
+    """N single-robot controllers (:class:`krl.control.types.Controller`) as one controller of N robots:
+    robot ``i``'s is built fresh for each run it starts, and acts on its own state.
+
+    Args:
+        build: makes a fresh controller.
+        num_robots: N.
+    """
+
+    def __init__(self, build: Callable[[], Any], num_robots: int) -> None:
+        self.build = build
+        self.controllers: list[Any] = [None] * num_robots
+
+    def reset(self, index: int, state) -> None:
+        """Start robot ``index``'s new run from ``state`` with a fresh controller."""
+        self.controllers[index] = self.build()
+        self.controllers[index].reset(state)
+
+    def act(self, states, commands: np.ndarray, rows: np.ndarray):
+        """The joint command of every robot (arrays of shape (N, 12); the robots outside ``rows`` stand, at
+        Table 4.2's gains) and the robots of ``rows`` whose controller gave up (an ``MPCError``), with the
+        error."""
+        from krl.control.mpc import MPCError
+        from krl.control.types import JointCommand
+        from krl.robots.a1.constants import KD, KP, STANDING_JOINT_ANGLES
+
+        n = len(self.controllers)
+        parts = [
+            np.tile(STANDING_JOINT_ANGLES, (n, 1)),
+            np.tile(KP, (n, 1)),
+            np.tile(KD, (n, 1)),
+            np.zeros((n, 12)),
+        ]
+        given = [False] * 4
+        failed: dict[int, Exception] = {}
+        for index in rows.tolist():
+            try:
+                command = self.controllers[index].act(states.row(index), commands[index].copy())
+            except MPCError as error:
+                failed[index] = error
+                continue
+            for k, value in enumerate(command):
+                if value is not None:
+                    parts[k][index] = value
+                    given[k] = True
+        kp, kd = (parts[1], parts[2]) if given[1] or given[2] else (None, None)
+        return JointCommand(parts[0], kp, kd, parts[3] if given[3] else None), failed
 
 
 def _number_options(text: str, kind: str, rest: str, known: tuple[str, ...]) -> dict[str, float]:
@@ -281,6 +344,13 @@ def _parse_agent(text: str, rest: str) -> ControllerSpec:
     return replace(spec, label=_user_label("agent", name, SHIPPED_POLICIES, spec.content_hash or ""))
 
 
+def _build_agent_batch(spec: ControllerSpec, seed: int | None, num_robots: int):
+    from krl.agent.controller import AgentBatchController
+    from krl.agent.policy import load_policy
+
+    return AgentBatchController(load_policy(spec.artifact(seed).path, check_kernel=False), num_robots)
+
+
 def _build_agent(spec: ControllerSpec, seed: int | None):
     from krl.agent.controller import AgentController
     from krl.agent.policy import load_policy
@@ -346,7 +416,7 @@ def _origin(spec: ControllerSpec) -> str:
 CONTROLLER_KINDS: dict[str, ControllerKind] = {
     "expert": ControllerKind(_parse_expert, _build_expert, "MPC"),
     "kernel": ControllerKind(_parse_kernel, _build_kernel, "Kernel"),
-    "agent": ControllerKind(_parse_agent, _build_agent, "Agent"),
+    "agent": ControllerKind(_parse_agent, _build_agent, "Agent", _build_agent_batch),
     "gait": ControllerKind(_parse_gait, _build_gait, "Scripted gait"),
 }
 """Every kind of controller ``krl evaluate`` knows, by the name before the colon of a spec."""

@@ -46,10 +46,12 @@ RUN_METRICS: tuple[str, ...] = (
 )
 """Keys of a run's metrics (:meth:`EpisodeScorer.metrics`). Records made before ``ended`` existed lack it."""
 
+
 class EpisodeScorer:
-    """Called after every control step of a walk (``Runner.walk_to(on_task_step=scorer)``); accumulates
-    one run's metrics from what the episode loop made of the step (:class:`krl.task.episode.EpisodeStep`:
-    the reward terms, the waypoint reached, the fall), so the score and the walk cannot disagree.
+    """Told every control step of a walk (:meth:`add`, from ``Runner.walk_to(on_task_step=...)`` or from
+    batched evaluation); accumulates one run's metrics from what the episode loop made of the step
+    (:class:`krl.task.episode.EpisodeStep`: the reward terms, the waypoint reached, the fall), so the score
+    and the walk cannot disagree.
 
     Args:
         targets: the run's waypoints, world (x, y) [m]. Shape: (N, 2).
@@ -64,14 +66,14 @@ class EpisodeScorer:
         self.distance_walked = 0.0
         """Planar path length of the base [m]."""
 
-    def __call__(self, record: StepRecord, step: EpisodeStep) -> None:
-        after = record.after
+    def add(self, step: EpisodeStep, index: int = 0) -> None:
+        """Count robot ``index``'s part of the control step ``step``."""
         for name, values in step.terms.items():
-            self.term_sums[name] = self.term_sums.get(name, 0.0) + values[0]
+            self.term_sums[name] = self.term_sums.get(name, 0.0) + values[index]
         self.steps += 1
-        self.targets_reached += bool(step.reached[0])
-        self.fell = self.fell or bool(step.fell[0])
-        moved = after.base_pos[:2] - record.before.base_pos[:2]
+        self.targets_reached += bool(step.reached[index])
+        self.fell = self.fell or bool(step.fell[index])
+        moved = step.states.base_pos[index, :2] - step.before.base_pos[index, :2]
         self.distance_walked += math.hypot(moved[0], moved[1])
 
     def passed(self, count: int) -> None:
@@ -149,7 +151,7 @@ def score_walk(
 
     def on_step(record: StepRecord, step: EpisodeStep) -> None:
         nonlocal push_heading
-        scorer(record, step)
+        scorer.add(step)
         if push is not None and push_heading is None and push.active_at(sim.step_count - 1):
             push_heading = float(record.before.rpy[2])  # the step just taken is the push's first
         for capturing in (recorder, frames):
@@ -308,7 +310,12 @@ def score_push_attempt(
     push that never came (the run ended first) is recorded turned by the walk's direction, the heading
     :func:`krl.eval.summaries.push_direction` then falls back to, so the report's quarter is the stratum."""
     push = sweep.push(magnitude, attempt)
-    metrics = sweep.walk(controller, push, video=video, sim=sim)
+    return push_attempt_metrics(sweep, attempt, push, sweep.walk(controller, push, video=video, sim=sim))
+
+
+def push_attempt_metrics(sweep: PushSweep, attempt: int, push, metrics: dict[str, Any]) -> dict[str, Any]:
+    """An attempt's walk ``metrics`` (with ``push_heading``) and its push (:meth:`PushSweep.push`) as the
+    attempt's metrics (:func:`score_push_attempt`)."""
     stratum = sweep.stratum(attempt)
     if stratum is None:
         return {**metrics, "push": push.summary()}

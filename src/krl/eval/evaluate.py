@@ -4,7 +4,9 @@ core, resumably.
 Each run (a course from one start pose, with one seed where the controller depends on it; one attempt at
 one push magnitude; or a course from one start pose at one ground friction) is a :class:`Task`, keyed
 ``<course>/start<k>``, ``push/m<N>-a<k>`` or ``friction/<course>-mu<μ>-start<k>`` (``-seed<S>`` appended
-for a seed group). Workers run tasks and return their records; the main process writes them as Parquet
+for a seed group). Workers walk tasks in batches of one controller and seed (:func:`batch_jobs`,
+:func:`krl.eval.batch.run_batch`: the same records as each run walked alone) and return their records;
+the main process writes them as Parquet
 parts of ``OUT/<controller>/`` (:mod:`krl.eval.records`: atomically, in batches, merged into one part at the
 end) and reads the older layout's ``OUT/<controller>/<key>.json`` too. A record stores what made it
 (controller, course or sweep fingerprint, seed, friction), so a re-run skips finished runs and refuses to
@@ -43,6 +45,10 @@ PUSH_DIR = "push"
 FRICTION_DIR = "friction"
 """Subdirectory of a controller's results that holds the friction sweep."""
 
+
+BATCH_RUNS = 32
+"""Most runs in one job of a worker (:func:`batch_jobs`): two for each robot of a batch
+(:data:`krl.eval.batch.BATCH_SLOTS`), so a batch stays full while its longest runs end."""
 
 HOW_DONE = ("ran", "stored", "shared")
 """How a task's record became available: its run ran in this call; it was stored already; or it is the
@@ -177,6 +183,30 @@ def friction_tasks(
     return tasks
 
 
+def batch_jobs(tasks: Sequence[Task], workers: int) -> list[list[int]]:
+    """``tasks`` (by index) in the jobs a worker walks as one batch: consecutive runs of one controller and
+    seed, at most :data:`BATCH_RUNS` each and split so that every worker has a job where the runs allow;
+    a filmed run alone."""
+    jobs: list[list[int]] = []
+    for (_, _, filmed), group in itertools.groupby(
+        range(len(tasks)), key=lambda i: (tasks[i].controller, tasks[i].seed, tasks[i].video is not None)
+    ):
+        indices = list(group)
+        size = 1 if filmed else max(1, min(BATCH_RUNS, -(-len(indices) // workers)))
+        jobs += [indices[start : start + size] for start in range(0, len(indices), size)]
+    return jobs
+
+
+def run_tasks(tasks: Sequence[Task]) -> list[dict[str, Any]]:
+    """Run one job of :func:`batch_jobs` (in a worker): a filmed run alone (:func:`run_task`), else the
+    batch (:func:`krl.eval.batch.run_batch`); their records, in order."""
+    if len(tasks) == 1 and tasks[0].video:
+        return [run_task(tasks[0])]
+    from krl.eval.batch import run_batch
+
+    return run_batch(tasks)
+
+
 def run_task(task: Task) -> dict[str, Any]:
     """Run one task (in a worker); returns its record (identity + metrics)."""
     from krl.sim.robot import A1Sim
@@ -275,9 +305,10 @@ def execute(
     called (the CLI records its command there), and ``on_done(task, record, how)`` for each task as its
     record becomes available, ``how`` one of :data:`HOW_DONE`. Records are written in batches
     (:class:`krl.eval.records.RecordWriter`) and each controller's parts merged into one at the end. The
-    runs go through :func:`krl.util.parallel.run_jobs`: Ctrl-C or SIGTERM stops the workers, writes the
-    records waiting and raises :class:`krl.util.parallel.Interrupted` (a ``KeyboardInterrupt``); only the
-    runs in flight are lost (a killed process loses at most a batch).
+    runs go through :func:`krl.util.parallel.run_jobs` in batches (:func:`batch_jobs`, walked by
+    :func:`krl.eval.batch.run_batch`): Ctrl-C or SIGTERM stops the workers, writes the records waiting and
+    raises :class:`krl.util.parallel.Interrupted` (a ``KeyboardInterrupt``); only the batches in flight are
+    lost (a killed process also loses the records not yet written, at most a write batch).
     """
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
@@ -318,17 +349,20 @@ def execute(
         for where, record in records.items():
             on_done(planned[where], record, "stored")
 
-    def finish(index: int, record: dict[str, Any]) -> None:
-        first, *others = served[to_run[index]]
-        store(first, record, "ran")
-        for task in others:
-            store(task, record, "shared")
+    jobs = batch_jobs([served[key][0] for key in to_run], workers)
+
+    def finish(job: int, job_records: list[dict[str, Any]]) -> None:
+        for index, record in zip(jobs[job], job_records, strict=True):
+            first, *others = served[to_run[index]]
+            store(first, record, "ran")
+            for task in others:
+                store(task, record, "shared")
 
     try:
         for key, same in served.items():
             for task in same if key in stored else ():
                 store(task, stored[key], "shared")
-        run_jobs(run_task, [served[key][0] for key in to_run], workers, on_result=finish)
+        run_jobs(run_tasks, [[served[to_run[i]][0] for i in job] for job in jobs], workers, on_result=finish)
     finally:
         writer.flush()
     writer.consolidate()

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from krl.kernel.features import check_variant, input_names, output_size
+from krl.util.affine import affine
 from krl.util.output import npz_bytes, write_atomic
 
 FILE_FORMAT = "krl-kernel"
@@ -80,15 +81,16 @@ class Kernel:
     def output_size(self) -> int:
         return len(self.output_mean)
 
-    def predict(self, features: np.ndarray) -> np.ndarray:
-        """Foot positions [m] from raw features. Shapes: (..., n_in) -> (..., n_out)."""
+    def predict(self, features: np.ndarray, rowwise: bool = False) -> np.ndarray:
+        """Foot positions [m] from raw features. Shapes: (..., n_in) -> (..., n_out). ``rowwise``: every row
+        of 2-D features computed as if alone (:func:`krl.util.affine.affine`)."""
         x = np.asarray(features, dtype=np.float64)
         if x.shape[-1] != self.input_size:
             raise ValueError(f"kernel-{self.variant} expects {self.input_size} inputs, got shape {x.shape}")
         x = (x - self.input_mean) / self.input_std
         layers = self.layers()
         for index, layer in enumerate(layers):
-            x = x @ layer["W"].T + layer["b"]
+            x = affine(x, layer["W"], layer["b"], rowwise)
             if index == len(layers) - 1:
                 break
             if self.network.batch_norm:

@@ -1,0 +1,166 @@
+"""Batched evaluation: a worker walks its runs of one controller together, in the one episode loop.
+
+:func:`run_batch` takes runs (:class:`krl.eval.evaluate.Task`: courses from their starts, push-sweep
+attempts, friction-sweep runs) of one controller and seed, builds the controller once
+(:meth:`krl.eval.controllers.ControllerSpec.build_batch`) and walks up to :data:`BATCH_SLOTS` runs at once,
+one robot each, in one :class:`krl.task.episode.EpisodeBatch`; a robot whose run ended starts the next run
+waiting. Each robot's run is the one :func:`krl.eval.episodes.score_walk` walks alone, step for step and bit
+for bit (the networks run row by row, :mod:`krl.util.affine`), so a record does not depend on the runs
+walked beside it, on the batch size or on the number of workers; only ``wall_seconds`` (the wall time the
+run took while sharing the batch) differs.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from krl.control.commands import CommandParams
+from krl.eval.episodes import EpisodeScorer, push_attempt_metrics
+from krl.sim.batch import SimBatch
+from krl.sim.model import BuiltModel, build_model
+from krl.sim.pushes import OnePush, Push
+from krl.task.episode import EpisodeBatch, EpisodeStep
+from krl.task.reward import EVALUATION_REWARD
+from krl.task.waypoints import TaskStatus, WaypointTask
+from krl.util.timing import CONTROL_DT
+
+BATCH_SLOTS: int = 16
+"""Robots a worker walks at once (the training recipe's robots per worker)."""
+
+
+class _Walk(NamedTuple):
+    """What one run walks."""
+
+    built: BuiltModel
+    targets: np.ndarray
+    """Waypoints, world (x, y) [m]. Shape: (K, 2)."""
+    start: tuple[float, float, float]
+    """Start pose (x, y, yaw) [m, m, rad]."""
+    time_limit: float
+    """[s], for each waypoint and for the whole walk."""
+    d_min: float
+    """Waypoint threshold [m]."""
+    push: Push | None = None
+    heading_frame: bool = False
+    """The push's force is relative to the base's heading when it starts."""
+
+
+@dataclass
+class _Run:
+    """One run walking in a slot of the batch."""
+
+    index: int
+    """The run's place in :func:`run_batch`'s tasks."""
+    task: WaypointTask
+    scorer: EpisodeScorer
+    push: Push | None
+    started: float = field(default_factory=time.perf_counter)
+    """Wall clock at its start [s]."""
+    push_heading: float | None = None
+    """The base's yaw [rad] before the push's first control step (None until the push came)."""
+
+
+def _walk(task, flat: list[BuiltModel], models: dict[str, BuiltModel]) -> _Walk:
+    """What run ``task`` walks; course models are compiled once per course."""
+    sweep = task.sweep
+    if sweep is not None:
+        if not flat:
+            flat.append(build_model("flat"))
+        push = sweep.push(task.magnitude, task.attempt)
+        target = np.array([sweep.target])
+        heading = sweep.directions != "uniform"
+        return _Walk(flat[0], target, (0.0, 0.0, 0.0), sweep.time_limit, sweep.d_min, push, heading)
+    course = task.course
+    fingerprint = course.fingerprint
+    if fingerprint not in models:
+        models[fingerprint] = course.build()
+    start = tuple(course.starts[task.start])
+    return _Walk(models[fingerprint], np.array(course.waypoints), start, course.time_limit, course.d_min)
+
+
+def run_batch(tasks: Sequence) -> list[dict[str, Any]]:
+    """The records (identity and metrics, as :func:`krl.eval.evaluate.run_task` makes them) of ``tasks``,
+    all of one controller and seed and none filmed, in task order."""
+    spec, seed = tasks[0].controller, tasks[0].seed
+    if any(t.controller != spec or t.seed != seed or t.video for t in tasks):
+        raise ValueError("a batch holds runs of one controller and seed, none filmed")
+    flat: list[BuiltModel] = []
+    models: dict[str, BuiltModel] = {}
+    walks = [_walk(task, flat, models) for task in tasks]
+    slots = min(BATCH_SLOTS, len(tasks))
+    sims = SimBatch([walks[0].built] * slots)
+    episodes = EpisodeBatch(sims, EVALUATION_REWARD)
+    controller = spec.build_batch(seed, slots)
+    waiting = deque(range(len(tasks)))
+    running: list[_Run | None] = [None] * slots
+    metrics: list[dict[str, Any] | None] = [None] * len(tasks)
+
+    def begin(slot: int) -> None:
+        index = waiting.popleft()
+        walk = walks[index]
+        sims.replace(slot, walk.built)
+        x, y, yaw = walk.start
+        state = sims.reset(slot, xy=(x, y), yaw=yaw)
+        controller.reset(slot, state)
+        params = replace(CommandParams(), d_min=walk.d_min)
+        task = WaypointTask(walk.targets, params, walk.time_limit, walk.time_limit)
+        task.reset(state.base_pos[:2])
+        push = walk.push
+        episodes.start([slot], [task], [None if push is None else OnePush(push, walk.heading_frame)])
+        running[slot] = _Run(index, task, EpisodeScorer(walk.targets), push)
+
+    def end(slot: int, timed_out: bool = False, error: str | None = None) -> None:
+        run = running[slot]
+        episodes.stop(slot)
+        wall = time.perf_counter() - run.started
+        result = run.scorer.metrics(float(sims.step_counts[slot] * CONTROL_DT), wall, timed_out, error)
+        if run.push is not None:
+            result["push_heading"] = run.push_heading
+        metrics[run.index] = result
+        running[slot] = None
+
+    for slot in range(slots):
+        begin(slot)
+    while episodes.active.any():
+        rows = np.flatnonzero(episodes.active)
+        command, failed = controller.act(episodes.states, episodes.commands, rows)
+        for slot, error in failed.items():
+            end(slot, error=f"{type(error).__name__}: {error}")
+        step = episodes.step(*command)
+        for slot in rows.tolist():
+            if running[slot] is not None:
+                _count(step, slot, running[slot], sims, end)
+        for slot in range(slots):
+            if running[slot] is None and waiting:
+                begin(slot)
+    return [_record(task, result) for task, result in zip(tasks, metrics, strict=True)]
+
+
+def _count(step: EpisodeStep, slot: int, run: _Run, sims: SimBatch, end) -> None:
+    """Score robot ``slot``'s part of ``step`` into its run, and end the run where the step ended it."""
+    if step.unstable[slot]:
+        end(slot, error=f"SimulationUnstableError: {sims.divergence(slot)}")
+        return
+    run.scorer.add(step, slot)
+    push = run.push
+    if push is not None and run.push_heading is None and push.active_at(int(sims.step_counts[slot]) - 1):
+        run.push_heading = float(step.before.rpy[slot, 2])  # the step just taken is the push's first
+    if step.ended[slot]:
+        timed_out = run.task.status is TaskStatus.TIMED_OUT and not step.fell[slot]
+        run.scorer.passed(run.task.reached_count)
+        end(slot, timed_out=bool(timed_out))
+
+
+def _record(task, metrics: dict[str, Any]) -> dict[str, Any]:
+    """A run's record from its walk's metrics (the push sweep's with its push)."""
+    if task.sweep is not None:
+        metrics = push_attempt_metrics(
+            task.sweep, task.attempt, task.sweep.push(task.magnitude, task.attempt), metrics
+        )
+    return {**task.identity(), "run": task.key, "metrics": metrics}

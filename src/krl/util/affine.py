@@ -1,0 +1,22 @@
+"""The dense layer of krl's NumPy networks (the kernel, the exported policy), with a row-stable mode.
+
+BLAS sums ``x @ W.T`` for a one-row ``x`` and for a many-row ``x`` in different orders, so a row's result
+can differ in its last bits with the rows computed beside it. A robot walked alone and the same robot
+walked in a batch must make the same steps (the walk is chaotic: a last-bit difference grows into another
+run), so batched evaluation computes every row as a batch of one row (``rowwise=True``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def affine(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, rowwise: bool = False) -> np.ndarray:
+    """``x @ weight.T + bias``. Shapes: x (N, in) (or (in,)), weight (out, in), bias (out,) -> (N, out).
+
+    ``rowwise``: each row of a 2-D ``x`` is multiplied alone, exactly as a one-row ``x`` is, so the result
+    of a row does not depend on the other rows (each is one BLAS call: slower for many rows).
+    """
+    if not rowwise or x.ndim != 2 or len(x) == 1:
+        return x @ weight.T + bias
+    return np.concatenate([x[row : row + 1] @ weight.T for row in range(len(x))]) + bias

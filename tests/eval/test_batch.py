@@ -1,0 +1,59 @@
+"""Batched evaluation: a run walked in a batch is the run walked alone, record for record."""
+
+from __future__ import annotations
+
+import pytest
+
+from krl.eval import batch
+from krl.eval.batch import run_batch
+from krl.eval.controllers import parse_controller
+from krl.eval.courses import load_course
+from krl.eval.episodes import PushSweep
+from krl.eval.evaluate import course_tasks, push_tasks, run_task
+
+HEIGHTFIELD_COURSE = """
+format = 1
+name = "rough-short"
+time_limit = 2.5
+d_min = 0.5
+waypoints = [[0.6, 0.0], [0.7, 0.3]]
+starts = [[0.0, 0.0, 0.0], [0.0, 0.3, -0.3], [0.0, -0.3, 0.3]]
+
+[terrain]
+name = "heightfield"
+seed = 3
+"""
+"""Three starts on rough ground, two close waypoints, 2.5 s: some runs finish, others run out of time."""
+
+SWEEP = PushSweep(magnitudes=(250.0, 900.0), attempts=2, window=(0.3, 0.8), time_limit=2.0)
+"""Pushes soon after the start, the strongest enough to topple every controller."""
+
+
+def without_wall_time(record: dict) -> dict:
+    return {**record, "metrics": {k: v for k, v in record["metrics"].items() if k != "wall_seconds"}}
+
+
+@pytest.mark.parametrize("text", ["kernel", "agent:gait-ground", "expert"])
+def test_runs_walked_in_a_batch_make_the_records_they_make_alone(tmp_path, monkeypatch, text):
+    path = tmp_path / "rough-short.toml"
+    path.write_text(HEIGHTFIELD_COURSE)
+    spec = parse_controller(text)
+    seeds = spec.seeds[:1] if spec.seeded else None
+    tasks = course_tasks(spec, [load_course(str(path))], seeds) + push_tasks(spec, SWEEP, seeds)
+    monkeypatch.setattr(batch, "BATCH_SLOTS", 3)  # fewer robots than runs: slots start second runs
+    batched = run_batch(tasks)
+    alone = [run_task(task) for task in tasks]
+    assert [without_wall_time(r) for r in batched] == [without_wall_time(r) for r in alone]
+    endings = {record["metrics"]["ended"] for record in alone}
+    assert "fell" in endings and len(endings) >= 2
+
+
+def test_a_batch_refuses_runs_of_two_controllers(tmp_path):
+    path = tmp_path / "rough-short.toml"
+    path.write_text(HEIGHTFIELD_COURSE)
+    course = load_course(str(path))
+    tasks = course_tasks(parse_controller("kernel"), [course]) + course_tasks(
+        parse_controller("expert"), [course]
+    )
+    with pytest.raises(ValueError, match="one controller and seed"):
+        run_batch(tasks)
