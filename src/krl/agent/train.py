@@ -228,13 +228,7 @@ def train(
     try:
         model = _new_model(config, venv, run["seed"], total, device, symmetric)
         model.update_threads = update_threads
-        if latest is not None:
-            _resume(model, start)
-            log(f"resuming {out} from {latest.name} ({done} env steps)")
-            archive_log(out, done)
-        elif start is not None:
-            _start_from(model, start)
-            log(f"starting {out} from {run['initialized_from']['run']} ({start.num_timesteps} env steps)")
+        _load_start(model, out, run, latest, start, done, log)
         model.set_logger(configure(str(out), ["csv", "tensorboard"]))
         curriculum = _curriculum(config, venv, latest)
         return _learn(
@@ -242,6 +236,19 @@ def train(
         )
     finally:
         venv.close()
+
+
+def _load_start(model, out: Path, run: dict[str, Any], latest, start, done: int, log) -> None:
+    """Put the run's own ``latest`` checkpoint (a resumption, ``done`` env steps in) or the run it
+    starts from (``start``, :func:`starting_point`) into ``model``, and say which; nothing for a fresh
+    run."""
+    if latest is not None:
+        _resume(model, start)
+        log(f"resuming {out} from {latest.name} ({done} env steps)")
+        archive_log(out, done)
+    elif start is not None:
+        _start_from(model, start)
+        log(f"starting {out} from {run['initialized_from']['run']} ({start.num_timesteps} env steps)")
 
 
 def training_device(asked: str) -> str:
