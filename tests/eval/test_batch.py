@@ -33,7 +33,7 @@ def without_wall_time(record: dict) -> dict:
     return {**record, "metrics": {k: v for k, v in record["metrics"].items() if k != "wall_seconds"}}
 
 
-@pytest.mark.parametrize("text", ["kernel", "agent:gait-ground", "expert"])
+@pytest.mark.parametrize("text", ["kernel", "kernel:ext", "agent:gait-ground", "expert"])
 def test_runs_walked_in_a_batch_make_the_records_they_make_alone(tmp_path, monkeypatch, text):
     path = tmp_path / "rough-short.toml"
     path.write_text(HEIGHTFIELD_COURSE)

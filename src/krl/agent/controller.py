@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from krl.agent.config import ResidualConfig
 from krl.agent.observation import observe
 from krl.agent.policy import Policy, check_kernel_file
 from krl.agent.residual import ResidualController
 from krl.control.types import JointCommand
-from krl.kernel.model import load_kernel
+from krl.kernel.model import Kernel, load_kernel
 from krl.sim.state import RobotState, StateBatch
 
 
@@ -81,3 +82,31 @@ class AgentBatchController:
         observation = observe(self.features, self.residual.observation_inputs(states))
         action = self.policy.act(observation, rowwise=True)
         return JointCommand(self.residual.joint_targets(action)), {}
+
+
+class KernelBatchController:
+    """A kernel at its trained gait and heights driving N robots at once (batched evaluation): the residual
+    path with zero residuals, the kernel run row by row, so each robot gets exactly the joint targets
+    :class:`krl.kernel.controller.KernelController` gives it alone (tests/eval/test_batch.py). Kernel
+    variants of :data:`krl.agent.residual.BATCHABLE_VARIANTS` only.
+
+    Args:
+        kernel: the kernel.
+        num_robots: N.
+    """
+
+    def __init__(self, kernel: Kernel, num_robots: int) -> None:
+        self.residual = ResidualController(kernel, ResidualConfig(), num_robots, rowwise=True)
+        self._no_action = np.zeros((num_robots, self.residual.config.action_size))
+
+    def reset(self, index: int, state: RobotState) -> None:
+        """Start robot ``index``'s new run (from ``state``): its gait clock from zero."""
+        self.residual.reset([index])
+
+    def act(
+        self, states: StateBatch, commands: np.ndarray, rows: np.ndarray
+    ) -> tuple[JointCommand, dict[int, Exception]]:
+        """Joint targets of every robot (shape (N, 12)) for the velocity commands (shape (N, 3)); no robot
+        fails."""
+        self.residual.prepare(states, commands)
+        return JointCommand(self.residual.joint_targets(self._no_action)), {}

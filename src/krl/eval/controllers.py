@@ -327,6 +327,17 @@ def _build_kernel(spec: ControllerSpec, seed: int | None):
     return KernelController(load_kernel(spec.artifact().path), **dict(spec.options))
 
 
+def _build_kernel_batch(spec: ControllerSpec, seed: int | None, num_robots: int):
+    from krl.agent.controller import KernelBatchController
+    from krl.agent.residual import BATCHABLE_VARIANTS
+    from krl.kernel.model import load_kernel
+
+    kernel = load_kernel(spec.artifact().path)
+    if spec.options or kernel.variant not in BATCHABLE_VARIANTS:  # another gait or heights; kernel-dyn2
+        return RobotControllers(lambda: _build_kernel(spec, seed), num_robots)
+    return KernelBatchController(kernel, num_robots)
+
+
 # --- agent -----------------------------------------------------------------------------------------
 
 
@@ -415,7 +426,7 @@ def _origin(spec: ControllerSpec) -> str:
 
 CONTROLLER_KINDS: dict[str, ControllerKind] = {
     "expert": ControllerKind(_parse_expert, _build_expert, "MPC"),
-    "kernel": ControllerKind(_parse_kernel, _build_kernel, "Kernel"),
+    "kernel": ControllerKind(_parse_kernel, _build_kernel, "Kernel", _build_kernel_batch),
     "agent": ControllerKind(_parse_agent, _build_agent, "Agent", _build_agent_batch),
     "gait": ControllerKind(_parse_gait, _build_gait, "Scripted gait"),
 }

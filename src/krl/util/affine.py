@@ -15,8 +15,9 @@ def affine(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, rowwise: bool = 
     """``x @ weight.T + bias``. Shapes: x (N, in) (or (in,)), weight (out, in), bias (out,) -> (N, out).
 
     ``rowwise``: each row of a 2-D ``x`` is multiplied alone, exactly as a one-row ``x`` is, so the result
-    of a row does not depend on the other rows (each is one BLAS call: slower for many rows).
+    of a row does not depend on the other rows: ``x`` as a stack of one-row matrices, which NumPy's matmul
+    hands to BLAS one at a time (slower than one product of all rows; tests/util/test_affine.py).
     """
     if not rowwise or x.ndim != 2 or len(x) == 1:
         return x @ weight.T + bias
-    return np.concatenate([x[row : row + 1] @ weight.T for row in range(len(x))]) + bias
+    return (x[:, None, :] @ weight.T)[:, 0, :] + bias
