@@ -86,7 +86,9 @@ class PointBatch:
             return SimulationUnstableError(f"simulation diverged at t={(self.steps - 1) * CONTROL_DT:.3f} s")
         return None
 
-    def step(self, q_target, kp=None, kd=None, tau_ff=None):
+    def step(self, q_target, kp=None, kd=None, tau_ff=None, rows=None):
+        if rows is not None and 0 not in rows:
+            return self._states
         self.steps += 1
         if self.steps == self.diverge_at:
             self.unstable[0] = True

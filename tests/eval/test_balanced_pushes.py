@@ -171,6 +171,8 @@ def test_cli_records_the_draw_in_the_summary_and_refuses_a_resume_with_another(t
 
     original = PushSweep.walk
     monkeypatch.setattr(PushSweep, "walk", walk)
+    # each run alone (one worker: in this process), so that the sweep walks the fake robot
+    monkeypatch.setattr(evaluate, "run_tasks", lambda tasks: [evaluate.run_task(task) for task in tasks])
     out = tmp_path / "out"
     argv = ["evaluate", "--controller", "kernel", "--push-sweep", "--magnitudes", "300", "--attempts", "4"]
     argv += ["--out", str(out), "--workers", "1", "--quiet", "--json"]

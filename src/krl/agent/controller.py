@@ -87,8 +87,9 @@ class AgentBatchController:
 class KernelBatchController:
     """A kernel at its trained gait and heights driving N robots at once (batched evaluation): the residual
     path with zero residuals, the kernel run row by row, so each robot gets exactly the joint targets
-    :class:`krl.kernel.controller.KernelController` gives it alone (tests/eval/test_batch.py). Kernel
-    variants of :data:`krl.agent.residual.BATCHABLE_VARIANTS` only.
+    :class:`krl.kernel.controller.KernelController` gives it alone
+    (tests/eval/test_batched_evaluation.py). Kernel variants of
+    :data:`krl.agent.residual.BATCHABLE_VARIANTS` only.
 
     Args:
         kernel: the kernel.

@@ -375,8 +375,10 @@ class SimBatch:
         kd: np.ndarray | None = None,
         tau_ff: np.ndarray | None = None,
         raise_on_divergence: bool = False,
+        rows: np.ndarray | None = None,
     ) -> StateBatch:
-        """One control step (5 physics steps of 1 ms) of every robot with a hybrid joint command.
+        """One control step (5 physics steps of 1 ms) of every robot (of ``rows``) with a hybrid joint
+        command.
 
         Args:
             q_target: joint angle targets [rad]. Shape: (N, 12).
@@ -386,6 +388,8 @@ class SimBatch:
             tau_ff: feed-forward torques [N·m], shape (N, 12); default zero.
             raise_on_divergence: raise the first diverged robot's :class:`SimulationUnstableError` after
                 the step, instead of only flagging it.
+            rows: the robots to step (indices); the others keep their state, clock and gains (their rows
+                of the command are not used). None: every robot.
 
         A robot whose physics diverges keeps its last state, marked fallen, and is flagged in
         :attr:`unstable` until it is reset or set. Raises ``ValueError`` for a wrong-shaped, non-finite or
@@ -398,27 +402,34 @@ class SimBatch:
             kd = np.broadcast_to(KD, (n, NUM_JOINTS)) if kd is None else joint_rows(kd, n, "kd")
             if np.any(kp < 0) or np.any(kd < 0):
                 raise ValueError("kp and kd must be >= 0")
-            for robot, robot_kp, robot_kd in zip(self._robots, kp, kd, strict=True):
-                robot.set_gains(robot_kp, robot_kd)
+        stepped = range(n) if rows is None else np.unique(np.asarray(rows, dtype=np.int64)).tolist()
+        if kp is not None:
+            for index in stepped:
+                self._robots[index].set_gains(kp[index], kd[index])
         if tau_ff is not None:
             tau_ff = joint_rows(tau_ff, n, "tau_ff")
         previous = self._states
-        self._physics(q_target, tau_ff, previous)
-        self._states = states = self._readout(previous)
+        self._physics(q_target, tau_ff, previous, stepped)
+        held = np.ones(n, dtype=bool)
+        held[list(stepped)] = False
+        self._states = states = self._readout(previous, held)
         if raise_on_divergence and self.unstable.any():
             raise self.divergence(int(np.flatnonzero(self.unstable)[0]))
         return states
 
-    def _physics(self, q_target: np.ndarray, tau_ff: np.ndarray | None, previous: StateBatch) -> None:
-        """Every robot's actuators, motor envelope and physics for one control step (a diverged robot is
-        flagged in :attr:`unstable`)."""
+    def _physics(
+        self, q_target: np.ndarray, tau_ff: np.ndarray | None, previous: StateBatch, stepped
+    ) -> None:
+        """The actuators, motor envelope and physics of the robots ``stepped`` (indices) for one control
+        step (a diverged robot is flagged in :attr:`unstable`)."""
         n = len(self._robots)
         lower, upper = np.empty((n, NUM_JOINTS)), np.empty((n, NUM_JOINTS))  # force ranges [N·m]
         if self.motor_envelope:
             joint_vel = np.array([robot.qvel[6 : 6 + NUM_JOINTS] for robot in self._robots])  # [rad/s]
             _torque_bounds_into(joint_vel, lower, upper)
         self.unstable[:] = False
-        for index, robot in enumerate(self._robots):
+        for index in stepped:
+            robot = self._robots[index]
             np.multiply(robot.kp, q_target[index], out=robot.ctrl)
             if tau_ff is not None:
                 robot.ctrl += tau_ff[index]
@@ -433,18 +444,19 @@ class SimBatch:
             else:
                 self._errors[index] = None
 
-    def _readout(self, previous: StateBatch) -> StateBatch:
+    def _readout(self, previous: StateBatch, held: np.ndarray) -> StateBatch:
         """The robots' states from their ``MjData`` after a step (a diverged robot's: its previous state,
-        marked fallen)."""
+        marked fallen; a robot ``held`` (shape (N,), bool) out of the step: its previous state)."""
         n = len(self._robots)
-        # what the robots' MjData hold after the step (zero where a robot diverged: its last state is kept)
+        # what the robots' MjData hold after the step (zero where a robot diverged or was held: kept)
         qpos, qvel, sites, sensors, torque, com = (
             np.array(views) for views in zip(*self._views, strict=True)
         )
         diverged = np.flatnonzero(self.unstable)
-        if len(diverged):
+        kept = np.flatnonzero(self.unstable | held)
+        if len(kept):
             for raw in (qpos, qvel, sites, sensors, torque, com):
-                raw[diverged] = 0.0
+                raw[kept] = 0.0
         rot = np.empty((n, 9))
         for matrix, quat in zip(rot, qpos[:, 3:7], strict=True):
             mujoco.mju_quat2Mat(matrix, quat)
@@ -462,10 +474,10 @@ class SimBatch:
                 com,
             )
         )
-        for index in diverged:
+        for index in kept:
             for name in FIELD_NAMES:
                 getattr(states, name)[index] = getattr(previous, name)[index]
-            states.fallen[index] = True
+        states.fallen[diverged] = True
         return states
 
 

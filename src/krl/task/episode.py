@@ -16,8 +16,8 @@ controller made from :attr:`EpisodeBatch.commands` and :attr:`EpisodeBatch.state
 5. **termination**: a fall (or divergence) ends a robot's episode; otherwise its task gives the next
    step's command, and a task that is over (every waypoint reached, or out of time) ends it.
 
-A robot whose episode ended keeps being stepped with whatever it is sent until :meth:`EpisodeBatch.start`
-begins its next episode; its results are not its episode's.
+A robot whose episode ended is held (not stepped: its state and clock stay) until
+:meth:`EpisodeBatch.start` begins its next episode; its rows of a step's results are not an episode's.
 """
 
 from __future__ import annotations
@@ -162,16 +162,16 @@ class EpisodeBatch:
         kd: np.ndarray | None = None,
         tau_ff: np.ndarray | None = None,
     ) -> EpisodeStep:
-        """One control step of every robot with the joint command (shapes (N, 12),
-        :meth:`krl.sim.batch.SimBatch.step`); returns what it did. Ended robots must be started again
-        before their results mean anything."""
+        """One control step of every robot whose episode is under way, with the joint command (shapes
+        (N, 12), :meth:`krl.sim.batch.SimBatch.step`; the other robots' rows are not used); returns what
+        it did."""
         sims, before, commands = self.sims, self.states, self.commands.copy()
         pushes = self._schedule_pushes(before)
-        states = sims.step(q_target, kp, kd, tau_ff)
-        steps = [
-            task.after_step(xy) if task is not None else _NO_STEP
-            for task, xy in zip(self.tasks, states.base_pos[:, :2], strict=True)
-        ]
+        walking = np.flatnonzero(self.active)
+        states = sims.step(q_target, kp, kd, tau_ff, rows=walking)
+        steps = [_NO_STEP] * len(self)
+        for index in walking.tolist():
+            steps[index] = self.tasks[index].after_step(states.base_pos[index, :2])
         target = np.array([step.target_index for step in steps], dtype=np.int64)
         distance = np.array([step.distance for step in steps])
         reached = np.array([step.reached for step in steps], dtype=bool)
@@ -179,7 +179,6 @@ class EpisodeBatch:
         stance = None if self.stance is None else self.stance.update(states)
         terms = reward_terms(self.reward, commands, states, distance, reached, fell, stance)
         ended = np.zeros(len(self), dtype=bool)
-        walking = np.flatnonzero(self.active)
         # a robot that fell still asks its task: a waypoint reached on the step of the fall counts
         ended[walking] = self._next_commands(states, walking) | fell[walking]
         self.active &= ~ended

@@ -39,7 +39,8 @@ def test_runs_walked_in_a_batch_make_the_records_they_make_alone(tmp_path, monke
     path.write_text(HEIGHTFIELD_COURSE)
     spec = parse_controller(text)
     seeds = spec.seeds[:1] if spec.seeded else None
-    tasks = course_tasks(spec, [load_course(str(path))], seeds) + push_tasks(spec, SWEEP, seeds)
+    # the course last: its runs end the batch, and some finish (a robot whose task is over waits)
+    tasks = push_tasks(spec, SWEEP, seeds) + course_tasks(spec, [load_course(str(path))], seeds)
     monkeypatch.setattr(batch, "BATCH_SLOTS", 3)  # fewer robots than runs: slots start second runs
     batched = run_batch(tasks)
     alone = [run_task(task) for task in tasks]
