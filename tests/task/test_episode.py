@@ -75,3 +75,13 @@ def test_each_robot_of_a_batch_ends_its_own_episode():
     (fall_step, fallen, fell), (hold_end, standing, standing_fell) = ends
     assert (fallen, fell, standing, standing_fell, hold_end) == (1, True, 0, False, 199)
     assert 4 <= fall_step < 199 and not episodes.active.any()
+
+
+def test_a_walk_whose_every_waypoint_is_within_reach_at_the_start_takes_no_step():
+    from krl.kernel.controller import KernelController
+    from krl.kernel.registry import load_model
+
+    sim = A1Sim(build_model("flat"))
+    runner = Runner(sim, KernelController(load_model("base")))
+    result = runner.walk_to([[0.2, 0.0], [0.0, 0.3]], start_pose=(0.0, 0.0, 0.0))
+    assert result.targets_reached == 2 and sim.step_count == 0 and not result.fell

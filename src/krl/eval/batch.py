@@ -112,8 +112,11 @@ def run_batch(tasks: Sequence) -> list[dict[str, Any]]:
         task = WaypointTask(walk.targets, params, walk.time_limit, walk.time_limit)
         task.reset(state.base_pos[:2])
         push = walk.push
-        episodes.start([slot], [task], [None if push is None else OnePush(push, walk.heading_frame)])
+        over = episodes.start([slot], [task], [None if push is None else OnePush(push, walk.heading_frame)])
         running[slot] = _Run(index, task, EpisodeScorer(walk.targets), push)
+        if over[0]:  # every waypoint within reach at the start: a walk of no step
+            running[slot].scorer.passed(task.reached_count)
+            end(slot, timed_out=task.status is TaskStatus.TIMED_OUT)
 
     def end(slot: int, timed_out: bool = False, error: str | None = None) -> None:
         run = running[slot]
@@ -125,9 +128,12 @@ def run_batch(tasks: Sequence) -> list[dict[str, Any]]:
         metrics[run.index] = result
         running[slot] = None
 
-    for slot in range(slots):
-        begin(slot)
-    while episodes.active.any():
+    while True:
+        for slot in range(slots):
+            while running[slot] is None and waiting:
+                begin(slot)
+        if not episodes.active.any():
+            break
         rows = np.flatnonzero(episodes.active)
         command, failed = controller.act(episodes.states, episodes.commands, rows)
         for slot, error in failed.items():
@@ -136,9 +142,6 @@ def run_batch(tasks: Sequence) -> list[dict[str, Any]]:
         for slot in rows.tolist():
             if running[slot] is not None:
                 _count(step, slot, running[slot], sims, end)
-        for slot in range(slots):
-            if running[slot] is None and waiting:
-                begin(slot)
     return [_record(task, result) for task, result in zip(tasks, metrics, strict=True)]
 
 

@@ -127,10 +127,12 @@ class EpisodeBatch:
         """The robots' current states (:attr:`krl.sim.batch.SimBatch.states`)."""
         return self.sims.states
 
-    def start(self, rows: Sequence[int] | np.ndarray, tasks: Sequence[RobotTask], pushes) -> None:
+    def start(self, rows: Sequence[int] | np.ndarray, tasks: Sequence[RobotTask], pushes) -> np.ndarray:
         """Begin the episodes of robots ``rows`` from their current states with ``tasks`` (already reset
         to those states) and push events (a sequence like ``tasks``, entries None for no pushes); their
-        first commands are prepared in :attr:`commands`."""
+        first commands are prepared in :attr:`commands`. Returns which of them have a task over already
+        (every waypoint within reach at the start; shape (len(rows),), bool): a walk ends such an
+        episode (:meth:`stop`) before its first step."""
         rows = np.atleast_1d(np.asarray(rows, dtype=np.int64))
         for index, task, events in zip(rows, tasks, pushes, strict=True):
             self.tasks[index] = task
@@ -138,7 +140,7 @@ class EpisodeBatch:
         self.active[rows] = True
         if self.stance is not None:
             self.stance.reset(rows)
-        self._next_commands(self.states, rows)
+        return self._next_commands(self.states, rows)
 
     def stop(self, index: int) -> None:
         """End robot ``index``'s episode now (e.g. its controller failed)."""

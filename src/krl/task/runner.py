@@ -165,7 +165,8 @@ class Runner:
         :class:`krl.sim.robot.SimulationUnstableError` if the physics diverges."""
         episodes, sim = self.episodes, self.sim
         started_at = sim.time
-        episodes.start([0], [task], [pushes])
+        if episodes.start([0], [task], [pushes])[0]:
+            episodes.stop(0)  # over before the first step
         result = RunResult()
         wall = time.perf_counter()
         reported = 0
