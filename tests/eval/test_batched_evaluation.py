@@ -58,3 +58,19 @@ def test_a_batch_refuses_runs_of_two_controllers(tmp_path):
     )
     with pytest.raises(ValueError, match="one controller and seed"):
         run_batch(tasks)
+
+
+def test_jobs_batch_consecutive_runs_of_one_controller_and_seed(tmp_path):
+    from krl.eval.evaluate import BATCH_RUNS, Task, batch_jobs
+
+    agent, expert = parse_controller("agent:gait-ground"), parse_controller("expert")
+    runs = [Task(f"c/start{k}", agent, seed=150) for k in range(2 * BATCH_RUNS + 3)]
+    runs += [
+        Task("c/film", agent, seed=150, video=str(tmp_path / "a.mp4")),
+        Task("c/start0", agent, seed=215),
+    ]
+    runs += [Task(f"c/start{k}", expert) for k in range(3)]
+    jobs = batch_jobs(runs, workers=2)
+    assert [len(job) for job in jobs] == [BATCH_RUNS, BATCH_RUNS, 3, 1, 1, 1, 1, 1]
+    assert [index for job in jobs for index in job] == list(range(len(runs)))
+    assert [len(job) for job in batch_jobs(runs[:8], workers=2)] == [4, 4]  # a job for each worker

@@ -134,6 +134,12 @@ class ControllerSpec:
         """A fresh controller for one run (``seed`` selects the per-seed artifact of seeded controllers)."""
         return CONTROLLER_KINDS[self.kind].build(self, seed)
 
+    @property
+    def batched(self) -> bool:
+        """Whether the kind drives many robots as one controller (:meth:`build_batch`), which pays to walk
+        its runs in batches."""
+        return CONTROLLER_KINDS[self.kind].build_batch is not None
+
     def build_batch(self, seed: int | None, num_robots: int):
         """The controller of ``num_robots`` robots that batched evaluation steps (:mod:`krl.eval.batch`):
         the kind's own batched one (the agents'), else one fresh :meth:`build` per run

@@ -185,14 +185,17 @@ def friction_tasks(
 
 def batch_jobs(tasks: Sequence[Task], workers: int) -> list[list[int]]:
     """``tasks`` (by index) in the jobs a worker walks as one batch: consecutive runs of one controller and
-    seed, at most :data:`BATCH_RUNS` each and split so that every worker has a job where the runs allow;
-    a filmed run alone."""
+    seed, at most :data:`BATCH_RUNS` each and split so that every worker has a job where the runs allow.
+    A filmed run goes alone, and so does each run of a controller without a batched form (the expert: its
+    MPC, not the simulation, takes the time, and a run at a time keeps the progress bar and an interrupted
+    evaluation's loss at one run)."""
     jobs: list[list[int]] = []
-    for (_, _, filmed), group in itertools.groupby(
+    for (spec, _, filmed), group in itertools.groupby(
         range(len(tasks)), key=lambda i: (tasks[i].controller, tasks[i].seed, tasks[i].video is not None)
     ):
         indices = list(group)
-        size = 1 if filmed else max(1, min(BATCH_RUNS, -(-len(indices) // workers)))
+        alone = filmed or not spec.batched
+        size = 1 if alone else max(1, min(BATCH_RUNS, -(-len(indices) // workers)))
         jobs += [indices[start : start + size] for start in range(0, len(indices), size)]
     return jobs
 
