@@ -306,19 +306,20 @@ def test_cli_collect_smoke(tmp_path, capsys):
 
 
 def test_a_fall_is_marked_and_followed_by_a_reset(tmp_path, monkeypatch):
-    import dataclasses
 
-    from krl.sim.robot import A1Sim
+    from krl.sim.batch import SimBatch
 
-    original_step = A1Sim.step
+    original_step = SimBatch.step
     calls = {"n": 0}
 
-    def step(self, *args, **kwargs):
-        state = original_step(self, *args, **kwargs)
+    def step(self, *args, **kwargs):  # the robot reads out fallen after its 150th control step
+        states = original_step(self, *args, **kwargs)
         calls["n"] += 1
-        return dataclasses.replace(state, fallen=True) if calls["n"] == 150 else state
+        if calls["n"] == 150:
+            states.fallen[:] = True
+        return states
 
-    monkeypatch.setattr(A1Sim, "step", step)
+    monkeypatch.setattr(SimBatch, "step", step)
     summary = collect_dataset(tmp_path / "fall", small_config(targets=2, targets_per_episode=2))
     assert (summary.falls, summary.targets_reached, summary.targets) == (1, 1, 2)
     ds = load_dataset(summary.path)
