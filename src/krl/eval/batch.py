@@ -142,7 +142,7 @@ def run_batch(tasks: Sequence) -> list[dict[str, Any]]:
         for slot in rows.tolist():
             if running[slot] is not None:
                 _count(step, slot, running[slot], sims, end)
-    return [_record(task, result) for task, result in zip(tasks, metrics, strict=True)]
+    return [_record(*run) for run in zip(tasks, walks, metrics, strict=True)]
 
 
 def _count(step: EpisodeStep, slot: int, run: _Run, sims: SimBatch, end) -> None:
@@ -160,10 +160,8 @@ def _count(step: EpisodeStep, slot: int, run: _Run, sims: SimBatch, end) -> None
         end(slot, timed_out=bool(timed_out))
 
 
-def _record(task, metrics: dict[str, Any]) -> dict[str, Any]:
-    """A run's record from its walk's metrics (the push sweep's with its push)."""
+def _record(task, walk: _Walk, metrics: dict[str, Any]) -> dict[str, Any]:
+    """A run's record from its walk's metrics (the push sweep's with the push it walked)."""
     if task.sweep is not None:
-        metrics = push_attempt_metrics(
-            task.sweep, task.attempt, task.sweep.push(task.magnitude, task.attempt), metrics
-        )
+        metrics = push_attempt_metrics(task.sweep, task.attempt, walk.push, metrics)
     return {**task.identity(), "run": task.key, "metrics": metrics}
