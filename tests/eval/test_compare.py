@@ -22,6 +22,17 @@ def test_fields_are_flattened_and_wall_time_ignored():
     assert compare_records(nan, record("stairs/start0", reward=float("nan"))) == {}
 
 
+def test_a_record_older_than_its_ending_compares_by_its_outcome():
+    old = record("stairs/start0")  # made before metrics.ended existed
+    new = record("stairs/start0")
+    new["metrics"]["ended"] = "finished"
+    assert compare_records(old, new) == {}
+    new["metrics"]["ended"] = "timed_out"  # a record that says otherwise still differs
+    assert compare_records(old, new) == {"metrics.ended": ["finished", "timed_out"]}
+    fallen = record("stairs/start0", success=False)
+    assert compare_records(fallen, new)["metrics.ended"] == ["fell", "timed_out"]
+
+
 def test_folders_compare_run_by_run(tmp_path, capsys):
     first, second = tmp_path / "first", tmp_path / "second"
     runs = [f"stairs/start{k}" for k in range(4)]
@@ -36,7 +47,7 @@ def test_folders_compare_run_by_run(tmp_path, capsys):
     assert comparison["only_first"] == ["agent-rp stairs/start3"] and comparison["only_second"] == []
     assert comparison["outcomes_moved"] == ["agent-rp stairs/start1"]
     assert 0 < comparison["largest_difference"]["metrics.reward_per_step"] < 0.1
-    assert comparison["changed_fields"] == ["metrics.fell", "metrics.success"]  # not numbers: listed
+    assert comparison["changed_fields"] == ["metrics.ended", "metrics.fell", "metrics.success"]  # listed
     assert comparison["identical"] is False
     assert main(["compare-results", str(first), str(tmp_path / "nowhere")]) == 2
     assert "no results folder" in capsys.readouterr().err

@@ -5,7 +5,9 @@ of floating-point operations had to change, the differences stated and shown to 
 compares two results folders (either layout, :mod:`krl.eval.records`) controller by controller and run by
 run: the runs only one folder holds, the runs whose records are equal (but for :data:`IGNORED`, which
 differ between any two runs of one task), and for the others the largest absolute difference of each
-numeric field, the other fields that changed and the runs whose outcome (:data:`OUTCOMES`) moved.
+numeric field, the other fields that changed and the runs whose outcome (:data:`OUTCOMES`) moved. A record
+made before ``metrics.ended`` existed is compared with the ending its other outcome fields give
+(:func:`krl.task.episode.ending`), so its age alone moves no outcome.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from krl.eval.records import WALL_TIME, controller_labels, read_runs
+from krl.task.episode import ending
 
 IGNORED: tuple[str, ...] = (f"metrics.{WALL_TIME}",)
 """Fields that differ between two runs of the same task (wall-clock time)."""
@@ -60,7 +63,7 @@ def _difference(a: Any, b: Any) -> float | None:
 
 def compare_records(a: dict[str, Any], b: dict[str, Any], ignored: Sequence[str] = IGNORED) -> dict[str, Any]:
     """The fields in which two records of one run differ: ``{field: [a's, b's]}`` (missing: None)."""
-    flat_a, flat_b = flatten(a), flatten(b)
+    flat_a, flat_b = (flatten(_with_ending(record)) for record in (a, b))
     keys = [key for key in dict.fromkeys([*flat_a, *flat_b]) if key not in ignored]
     differing = {}
     for key in keys:
@@ -68,6 +71,15 @@ def compare_records(a: dict[str, Any], b: dict[str, Any], ignored: Sequence[str]
         if x != y and _difference(x, y) != 0.0:
             differing[key] = [x, y]
     return differing
+
+
+def _with_ending(record: dict[str, Any]) -> dict[str, Any]:
+    """``record`` with ``metrics.ended`` (an older record's from its outcome fields)."""
+    metrics = record.get("metrics")
+    if not isinstance(metrics, dict) or "ended" in metrics or "fell" not in metrics:
+        return record
+    derived = ending(metrics.get("error"), metrics["fell"], metrics.get("timed_out", False))
+    return {**record, "metrics": {**metrics, "ended": derived}}
 
 
 def compare_results(

@@ -21,7 +21,7 @@ from krl.eval.summaries import PUSH_DIRECTIONS, QUARTER
 from krl.sim.pushes import OnePush
 from krl.sim.robot import SimulationUnstableError
 from krl.sim.terrains import MAX_GROUND_FRICTION
-from krl.task.episode import EpisodeStep
+from krl.task.episode import EpisodeStep, ending
 from krl.task.reward import EVALUATION_REWARD, RewardConfig
 from krl.task.runner import Runner, StepRecord
 from krl.task.waypoints import TARGET_TIME_LIMIT
@@ -93,7 +93,7 @@ class EpisodeScorer:
         total = sum(self.term_sums.values())
         count = len(self.targets)
         success = self.targets_reached == count and not self.fell and error is None
-        ended = "error" if error else "fell" if self.fell else "timed_out" if timed_out else "finished"
+        ended = ending(error, self.fell, timed_out)
         return {
             "targets": count,
             "targets_reached": self.targets_reached,

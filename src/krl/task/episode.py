@@ -43,6 +43,12 @@ out of time (a waypoint's or the whole walk's); an ``error`` (the simulation div
 gave up)."""
 
 
+def ending(error: str | None, fell: bool, timed_out: bool) -> str:
+    """Why a walk ended (:data:`ENDINGS`) from its record's ``error``, ``fell`` and ``timed_out``: an error
+    before a fall before running out of time; otherwise it finished."""
+    return "error" if error else "fell" if fell else "timed_out" if timed_out else "finished"
+
+
 class RobotTask(Protocol):
     """What a robot walks: the velocity command of each step and the step's progress
     (:class:`krl.task.waypoints.WaypointTask`, :class:`krl.task.runner.HoldTask`)."""
