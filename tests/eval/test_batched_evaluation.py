@@ -71,6 +71,7 @@ def test_jobs_batch_consecutive_runs_of_one_controller_and_seed(tmp_path):
     ]
     runs += [Task(f"c/start{k}", expert) for k in range(3)]
     jobs = batch_jobs(runs, workers=2)
-    assert [len(job) for job in jobs] == [BATCH_RUNS, BATCH_RUNS, 3, 1, 1, 1, 1, 1]
+    half = BATCH_RUNS // 2 + 1  # 2 x BATCH_RUNS + 3 runs in four jobs, two for each worker
+    assert [len(job) for job in jobs] == [half, half, half, 2 * BATCH_RUNS + 3 - 3 * half, 1, 1, 1, 1, 1]
     assert [index for job in jobs for index in job] == list(range(len(runs)))
     assert [len(job) for job in batch_jobs(runs[:8], workers=2)] == [4, 4]  # a job for each worker

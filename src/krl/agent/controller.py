@@ -53,8 +53,8 @@ class AgentController:
 
 class AgentBatchController:
     """The trained agent driving N robots at once, each exactly as :class:`AgentController` drives it alone:
-    the kernel and the policy run row by row (:func:`krl.util.affine.affine`), everything else batched.
-    What batched evaluation (:mod:`krl.eval.batch`) steps.
+    the kernel and the policy run row by row (:func:`krl.util.affine.affine`) for the robots walking,
+    everything else batched. What batched evaluation (:mod:`krl.eval.batch`) steps.
 
     Args:
         policy: the trained policy.
@@ -77,10 +77,13 @@ class AgentBatchController:
         self, states: StateBatch, commands: np.ndarray, rows: np.ndarray
     ) -> tuple[JointCommand, dict[int, Exception]]:
         """Joint targets of every robot (shape (N, 12)) for the velocity commands (shape (N, 3)); the robots
-        of ``rows`` are the ones walking (all N are computed). No robot fails: the second item is empty."""
-        self.residual.prepare(states, commands)
+        of ``rows`` are the ones walking: only theirs are the kernel's and the policy's (the others' hold
+        zero actions on their last kernel targets, and are reset before they walk again). No robot fails:
+        the second item is empty."""
+        _prepare_walking(self.residual, states, commands, rows)
         observation = observe(self.features, self.residual.observation_inputs(states))
-        action = self.policy.act(observation, rowwise=True)
+        action = np.zeros((len(commands), self.residual.config.action_size))
+        action[rows] = self.policy.act(observation[rows], rowwise=True)
         return JointCommand(self.residual.joint_targets(action)), {}
 
 
@@ -107,7 +110,19 @@ class KernelBatchController:
     def act(
         self, states: StateBatch, commands: np.ndarray, rows: np.ndarray
     ) -> tuple[JointCommand, dict[int, Exception]]:
-        """Joint targets of every robot (shape (N, 12)) for the velocity commands (shape (N, 3)); no robot
+        """Joint targets of every robot (shape (N, 12)) for the velocity commands (shape (N, 3)); the kernel
+        runs for the robots of ``rows``, the ones walking (the others hold their last targets). No robot
         fails."""
-        self.residual.prepare(states, commands)
+        _prepare_walking(self.residual, states, commands, rows)
         return JointCommand(self.residual.joint_targets(self._no_action)), {}
+
+
+def _prepare_walking(
+    residual: ResidualController, states: StateBatch, commands: np.ndarray, rows: np.ndarray
+) -> None:
+    """The gait clocks and kernel targets of the robots ``rows`` (indices) only: a robot's row does not
+    depend on the others' (the kernel runs row by row), and a robot not walking needs none."""
+    if len(rows) == residual.num_robots:
+        residual.prepare(states, commands)
+    else:
+        residual.prepare(states.rows(rows), commands[rows], rows)

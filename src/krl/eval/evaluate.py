@@ -46,9 +46,12 @@ FRICTION_DIR = "friction"
 """Subdirectory of a controller's results that holds the friction sweep."""
 
 
-BATCH_RUNS = 32
-"""Most runs in one job of a worker (:func:`batch_jobs`): two for each robot of a batch
-(:data:`krl.eval.batch.BATCH_SLOTS`), so a batch stays full while its longest runs end."""
+BATCH_RUNS = 128
+"""Most runs in one job of a worker (:func:`batch_jobs`): eight for each robot of a batch
+(:data:`krl.eval.batch.BATCH_SLOTS`). A batch's robots idle while its last runs end, half of its robot
+steps in a job of 32 push attempts at 700 N; jobs of 128 cost 12 % less CPU per control step on a push
+sweep (benchmarks/README.md), and an interrupted evaluation loses at most a job per worker (about 40 s of
+CPU in a push sweep)."""
 
 HOW_DONE = ("ran", "stored", "shared")
 """How a task's record became available: its run ran in this call; it was stored already; or it is the
@@ -185,7 +188,8 @@ def friction_tasks(
 
 def batch_jobs(tasks: Sequence[Task], workers: int) -> list[list[int]]:
     """``tasks`` (by index) in the jobs a worker walks as one batch: consecutive runs of one controller and
-    seed, at most :data:`BATCH_RUNS` each and split so that every worker has a job where the runs allow.
+    seed, at most :data:`BATCH_RUNS` each, in a multiple of ``workers`` jobs of equal size (to one run), so
+    that the workers finish together where the runs allow.
     A filmed run goes alone, and so does each run of a controller without a batched form (the expert: its
     MPC, not the simulation, takes the time, and a run at a time keeps the progress bar and an interrupted
     evaluation's loss at one run)."""
@@ -195,7 +199,8 @@ def batch_jobs(tasks: Sequence[Task], workers: int) -> list[list[int]]:
     ):
         indices = list(group)
         alone = filmed or not spec.batched
-        size = 1 if alone else max(1, min(BATCH_RUNS, -(-len(indices) // workers)))
+        count = workers * -(-len(indices) // (workers * BATCH_RUNS))
+        size = 1 if alone else -(-len(indices) // count)
         jobs += [indices[start : start + size] for start in range(0, len(indices), size)]
     return jobs
 
