@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from krl.cli import main
 
 SHORT = """
@@ -29,6 +31,10 @@ def test_bench_evaluate_measures_the_courses_it_walks(tmp_path, capsys):
     assert result["eval_steps_per_s"] > 0 and result["bare_steps_per_s"] > 0
     assert result["eval_ratio"] == round(result["eval_steps_per_s"] / result["bare_steps_per_s"], 3)
     assert result["push_runs"] == 0 and result["push_sweep_seconds"] is None
+    bare_step = 1 / result["bare_steps_per_s"]  # kernel-base's network bounds the ratio below 1
+    assert result["network_us_per_step"] > 0
+    ceiling = bare_step / (bare_step + result["network_us_per_step"] * 1e-6)
+    assert result["ratio_ceiling"] == pytest.approx(ceiling, abs=2e-3) and result["ratio_ceiling"] < 1
     assert main(["bench", "evaluate", "--controller", "nonsense", "--course", str(course)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "nonsense" in err

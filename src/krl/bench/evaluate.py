@@ -9,6 +9,12 @@ Measured in one run:
   constant controls holding the standing pose, for as many control steps as the evaluation walked on that
   course: the floor of the same physics on one core.
 * ``eval_ratio`` = eval / bare (target >= :data:`TARGET_RATIO`).
+* ``network_us_per_step``: the controller's networks for one robot's control step as batched evaluation
+  runs them, row by row (:mod:`krl.util.affine`: the kernel's forward pass, and an agent's policy), on one
+  core; 0 for a controller without a batched form (the expert).
+* ``ratio_ceiling`` = bare step / (bare step + networks): the ratio evaluation would reach if everything
+  else in a step (IK, readout, task, reward, scoring) cost nothing; what the target can be at most with
+  records that do not depend on the batch.
 * ``push_sweep_seconds``: wall time of a push sweep of ``push_attempts`` attempts per force (every
   force of the default sweep; none with 0) on every core: what a sweep costs on this machine, to compare
   engines side by side in one session.
@@ -46,6 +52,34 @@ def _evaluation(spec, courses, seeds, folder: Path) -> tuple[float, dict[str, in
     return seconds, steps
 
 
+def _network_seconds(spec, seed: int, repeats: int = 2000) -> float:
+    """Seconds of one robot-step of ``spec``'s networks, row by row (module docstring); best of three."""
+    import numpy as np
+
+    if not spec.batched:
+        return 0.0
+    controller = spec.build_batch(seed, 2)
+    kernel = controller.residual.kernel
+    policy = getattr(controller, "policy", None)
+    features = np.zeros((2, kernel.input_size))
+    observation = None if policy is None else np.zeros((2, policy.observation_size))
+
+    def one_step() -> None:
+        kernel.predict(features, rowwise=True)
+        if policy is not None:
+            policy.act(observation, rowwise=True)
+
+    best = min(_timed(one_step, repeats) for _ in range(3))
+    return best / 2  # two robots per call
+
+
+def _timed(function, repeats: int) -> float:
+    start = time.perf_counter()
+    for _ in range(repeats):
+        function()
+    return (time.perf_counter() - start) / repeats
+
+
 def bench_evaluate(
     controller: str = "agent",
     courses: Sequence[str] = ("flat", "stairs"),
@@ -76,7 +110,9 @@ def bench_evaluate(
         start = time.perf_counter()
         pushes = execute(tasks, Path(folder) / "push", workers=cores)
         sweep_seconds = time.perf_counter() - start
+        network = _network_seconds(spec, seeds[0])
     eval_rate, bare_rate = statistics.median(eval_rates), statistics.median(bare_rates)
+    ceiling = (1 / bare_rate) / (1 / bare_rate + network)
     return {
         "benchmark": "evaluate",
         "controller": spec.label,
@@ -88,6 +124,8 @@ def bench_evaluate(
         "eval_ratio": round(eval_rate / bare_rate, 3),
         "target_ratio": TARGET_RATIO,
         "meets_target": eval_rate / bare_rate >= TARGET_RATIO,
+        "network_us_per_step": round(network * 1e6, 1),
+        "ratio_ceiling": round(ceiling, 3),
         "cores": cores,
         "push_runs": len(tasks),
         "push_control_steps": sum(record["metrics"]["steps"] for record in pushes),
