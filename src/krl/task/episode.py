@@ -35,7 +35,7 @@ from krl.task.reward import RewardConfig, StanceMemory, reward_terms
 from krl.task.waypoints import TaskStatus, WaypointStep
 from krl.util.timing import CONTROL_DT
 
-__all__ = ["ENDINGS", "EpisodeBatch", "EpisodeStep", "PushEvents", "RobotTask"]
+__all__ = ["ENDINGS", "EpisodeBatch", "EpisodeStep", "PushEvents", "RobotTask", "ending"]
 
 ENDINGS: tuple[str, ...] = ("finished", "fell", "timed_out", "error")
 """Why an episode ended: its task's every waypoint (or its whole time at a held command) done; a fall;
