@@ -66,22 +66,30 @@ def test_the_pipeline_runs_the_pre_registered_steps_in_order(tmp_path, stands):
     assert _index(lines, "pilot-augment-seed150", "--steps 4000000") < pilot
     assert not (tmp_path / "runs/robust/pilot-loss-seed150").exists()  # the winner goes on as sym's 150
     assert (tmp_path / "runs/robust/sym-seed150").is_dir()
-    arms = ("sym", "curriculum", "sym-curriculum", "rp-sym")
-    pairs = [
-        sorted(_index(lines, f"--out runs/robust/{arm}-seed{seed} ") for seed in (150, 215)) for arm in arms
-    ]
-    assert pilot < pairs[0][0]
-    assert all(earlier[1] < later[0] for earlier, later in itertools.pairwise(pairs))  # a pair at a time
+
+    def pair(out: str) -> list[int]:
+        return sorted(_index(lines, f"--out {out}{seed} ") for seed in (150, 215))
+
+    candidates = [pair(f"runs/robust/{arm}-seed") for arm in ("sym", "curriculum", "sym-curriculum")]
+    assert pilot < candidates[0][0]
     configs = tmp_path / "runs/robust/configs"
     assert json.loads((configs / "rp-sym.json").read_text())["ppo"]["symmetry"] == "loss"
     assert json.loads((configs / "sym-curriculum.json").read_text())["env"]["push_curriculum"] is True
     rule = _index(lines, "--choose sym,curriculum,sym-curriculum", "--baseline baseline", "broad-pushes.json")
-    assert pairs[-1][1] < rule
-    robust_seeds = [line for line in lines if "--out runs/agent-robust/seed" in line]
+    robust_seeds = [i for i, line in enumerate(lines) if "--out runs/agent-robust/seed" in line]
     assert len(robust_seeds) == (2 if stands == "true" else 0)
+    # a pair at a time: the candidates, the rule, agent-robust's seeds where it stands, then rp-sym, which the
+    # rule does not read
+    steps = [
+        *candidates,
+        [rule, rule],
+        *([robust_seeds] if robust_seeds else []),
+        pair("runs/robust/rp-sym-seed"),
+    ]
+    assert all(earlier[1] < later[0] for earlier, later in itertools.pairwise(steps))
     evaluate = _index(lines, "evaluate", "--friction-sweep", "--out evals ")
     balanced = _index(lines, "evaluate", "--push-directions balanced", "--out evals-balanced")
-    assert rule < evaluate < balanced
+    assert steps[-1][1] < evaluate < balanced
     assert ("--controller agent:runs/agent-robust " in lines[evaluate]) == (stands == "true")
     curves = _index(lines, "agent curves", "--reach baseline", "--group sym=runs/robust/sym-seed150,")
     curves_rp = _index(
