@@ -51,3 +51,20 @@ def test_folders_compare_run_by_run(tmp_path, capsys):
     assert comparison["identical"] is False
     assert main(["compare-results", str(first), str(tmp_path / "nowhere")]) == 2
     assert "no results folder" in capsys.readouterr().err
+
+
+def test_the_machines_are_listed_not_compared(tmp_path, capsys):
+    here = {"cpu": "AMD EPYC", "blas": [{"library": "openblas", "version": "0.3.31", "architecture": "Haswell"}]}
+    there = {**here, "blas": [{**here["blas"][0], "architecture": "SkylakeX"}]}
+    first, second, unsaid = tmp_path / "first", tmp_path / "second", tmp_path / "unsaid"
+    records.write_part(first / "agent-rp", "agent-rp", [{**record("stairs/start0"), "machine": here}])
+    records.write_part(second / "agent-rp", "agent-rp", [{**record("stairs/start0"), "machine": there}])
+    records.write_part(unsaid / "agent-rp", "agent-rp", [record("stairs/start0")])  # made before records said
+    assert main(["compare-results", str(first), str(second), "--json"]) == 0
+    comparison = json.loads(capsys.readouterr().out)
+    assert comparison["machines"] == {"first": [here], "second": [there]}
+    assert comparison["same_machine"] is False and comparison["identical"] is True
+    assert main(["compare-results", str(first), str(first), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["same_machine"] is True
+    assert main(["compare-results", str(first), str(unsaid), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["same_machine"] is None

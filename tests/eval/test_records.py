@@ -12,6 +12,7 @@ from krl.eval import evaluate, records
 from krl.eval.controllers import parse_controller
 from krl.eval.courses import load_course
 from krl.eval.episodes import PushSweep
+from krl.util.machine import machine
 
 SWEEP = PushSweep(magnitudes=(300.0, 600.0), attempts=2, window=(0.05, 0.1), time_limit=0.15)
 
@@ -28,6 +29,7 @@ def test_records_go_to_one_part_per_controller_and_read_back_equal(tmp_path, tin
     runs = records.read_runs(out / "kernel-base")
     assert list(runs) == ["push/m300-a0", "push/m300-a1", "push/m600-a0", "push/m600-a1", "tiny/start0"]
     assert sorted(ran, key=lambda r: records.run_order(r["run"])) == [s.record for s in runs.values()]
+    assert all(s.record["machine"] == machine() for s in runs.values())  # where its arithmetic was done
     import pyarrow.parquet as pq  # the query columns repeat the records' fields
 
     table = pq.read_table(out / "kernel-base" / "part-00000.parquet").to_pylist()
@@ -157,6 +159,9 @@ def test_a_run_stored_twice_is_one_run_when_equal_and_refused_when_not(tmp_path,
     }
     copy.write_bytes(records.part_bytes("kernel-base", [again]))  # the run redone: the newer record is kept
     assert records.read_runs(folder)["tiny/start0"] == records.StoredRun(again, copy)
+    elsewhere = {**again, "machine": {**again["machine"], "cpu": "another"}}  # redone on another machine
+    copy.write_bytes(records.part_bytes("kernel-base", [elsewhere]))
+    assert records.read_runs(folder)["tiny/start0"] == records.StoredRun(elsewhere, copy)
     changed = {**runs["tiny/start0"].record, "metrics": {**runs["tiny/start0"].record["metrics"], "steps": 1}}
     copy.write_bytes(records.part_bytes("kernel-base", [changed]))
     with pytest.raises(records.EvaluationError, match="run kernel-base tiny/start0 is stored twice"):

@@ -85,7 +85,7 @@ def _walk(task, flat: list[BuiltModel], models: dict[str, BuiltModel]) -> _Walk:
 
 
 def run_batch(tasks: Sequence) -> list[dict[str, Any]]:
-    """The records (identity and metrics, as :func:`krl.eval.evaluate.run_task` makes them) of ``tasks``,
+    """The records (:meth:`krl.eval.evaluate.Task.record`, as :func:`krl.eval.evaluate.run_task` makes them) of ``tasks``,
     all of one controller and seed and none filmed, in task order."""
     spec, seed = tasks[0].controller, tasks[0].seed
     if any(t.controller != spec or t.seed != seed or t.video for t in tasks):
@@ -164,4 +164,4 @@ def _record(task, walk: _Walk, metrics: dict[str, Any]) -> dict[str, Any]:
     """A run's record from its walk's metrics (the push sweep's with the push it walked)."""
     if task.sweep is not None:
         metrics = push_attempt_metrics(task.sweep, task.attempt, walk.push, metrics)
-    return {**task.identity(), "run": task.key, "metrics": metrics}
+    return task.record(metrics)

@@ -8,6 +8,11 @@ differ between any two runs of one task), and for the others the largest absolut
 numeric field, the other fields that changed and the runs whose outcome (:data:`OUTCOMES`) moved. A record
 made before ``metrics.ended`` existed is compared with the ending its other outcome fields give
 (:func:`krl.task.episode.ending`), so its age alone moves no outcome.
+
+A record's ``machine`` (:func:`krl.util.machine.machine`) is not compared; the comparison lists the machines
+each folder's records were made on instead, since two machines whose BLAS sums in another order need not
+give equal records (docs/sim.md, "Across machines"): ``same_machine`` is true when both folders' compared
+records come from one and the same machine, false when they do not, null when a record does not say.
 """
 
 from __future__ import annotations
@@ -17,7 +22,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from krl.eval.records import WALL_TIME, controller_labels, read_runs
+from krl.eval.records import MACHINE, WALL_TIME, controller_labels, read_runs
 from krl.task.episode import ending
 
 IGNORED: tuple[str, ...] = (f"metrics.{WALL_TIME}",)
@@ -74,12 +79,21 @@ def compare_records(a: dict[str, Any], b: dict[str, Any], ignored: Sequence[str]
 
 
 def _with_ending(record: dict[str, Any]) -> dict[str, Any]:
-    """``record`` with ``metrics.ended`` (an older record's from its outcome fields)."""
+    """``record`` without its machine, with ``metrics.ended`` (an older record's from its outcome fields)."""
+    record = {key: value for key, value in record.items() if key != MACHINE}
     metrics = record.get("metrics")
     if not isinstance(metrics, dict) or "ended" in metrics or "fell" not in metrics:
         return record
     derived = ending(metrics.get("error"), metrics["fell"], metrics.get("timed_out", False))
     return {**record, "metrics": {**metrics, "ended": derived}}
+
+
+def _same_machine(machines: list[list[Any]]) -> bool | None:
+    """Whether the two folders' records (their distinct machines, None for a record that does not say)
+    were all made on one machine: None when a record does not say."""
+    if any(machine is None for side in machines for machine in side):
+        return None
+    return len(machines[0]) == 1 and machines[0] == machines[1]
 
 
 def compare_results(
@@ -95,11 +109,15 @@ def compare_results(
     changed: dict[str, None] = {}  # other fields that differ somewhere (booleans, strings, missing)
     moved: list[str] = []
     examples: list[dict[str, Any]] = []
+    machines: list[list[Any]] = [[], []]  # each folder's distinct machines among the compared records
     for label in names:
         runs = [read_runs(f / label, label) if (f / label).is_dir() else {} for f in (first, second)]
         only["first"] += [f"{label} {run}" for run in runs[0] if run not in runs[1]]
         only["second"] += [f"{label} {run}" for run in runs[1] if run not in runs[0]]
         for run in (run for run in runs[0] if run in runs[1]):
+            for side, seen in zip(runs, machines, strict=True):
+                if (machine := side[run].record.get(MACHINE)) not in seen:
+                    seen.append(machine)
             differing = compare_records(runs[0][run].record, runs[1][run].record, ignored)
             if not differing:
                 equal += 1
@@ -127,5 +145,7 @@ def compare_results(
         "largest_difference": dict(sorted(largest.items())),
         "changed_fields": sorted(changed),
         "examples": examples,
+        "machines": {"first": machines[0], "second": machines[1]},
+        "same_machine": _same_machine(machines),
         "identical": not (only["first"] or only["second"] or largest or changed),
     }

@@ -31,6 +31,7 @@ from krl.eval.controllers import ControllerSpec
 from krl.eval.courses import Course
 from krl.eval.episodes import FrictionSweep, PushSweep, score_push_attempt, score_walk
 from krl.eval.records import EvaluationError, RecordWriter, read_runs, remove_leftovers
+from krl.util.machine import machine
 from krl.util.output import write_atomic
 from krl.util.parallel import run_jobs
 
@@ -95,6 +96,12 @@ class Task:
             if self.friction is not None:
                 identity["friction"] = self.friction
         return identity
+
+    def record(self, metrics: dict[str, Any]) -> dict[str, Any]:
+        """The run's record: its identity, key and ``metrics``, and the machine that computed them
+        (:func:`krl.util.machine.machine`: records of one run from two machines may differ in their last
+        bits, and with them the walk)."""
+        return {**self.identity(), "run": self.key, "metrics": metrics, "machine": machine()}
 
 
 def run_seeds(spec: ControllerSpec, seeds: Sequence[int] | None) -> list[int | None]:
@@ -234,7 +241,7 @@ def run_task(task: Task) -> dict[str, Any]:
             course.d_min,
             video=task.video,
         )
-    return {**task.identity(), "run": task.key, "metrics": metrics}
+    return task.record(metrics)
 
 
 def check_record(record: dict[str, Any], task: Task, source: Path) -> dict[str, Any]:

@@ -8,7 +8,8 @@ An evaluation's folder ``OUT`` holds one folder per controller label::
 
 A run's *key* is its path under the label without ``.json``: ``<group>/<name>``, the group being a course
 name, ``push`` or ``friction`` (``stairs/start0-seed150``, ``push/m400-a12``). A part's ``record`` column
-holds each run's record as JSON, exactly as the older layout's file held it (identity, ``run``, ``metrics``);
+holds each run's record as JSON, as the older layout's file held it (identity, ``run``, ``metrics``, and in
+records made since 2026-12-07 the ``machine`` that computed them, :func:`krl.util.machine.machine`);
 the other columns repeat a few of its fields for queries (``pyarrow.dataset``, pandas, DuckDB) and are not
 read back. The schema metadata names the label and the format and holds the SHA-256 of the records, so a
 damaged part, a part of another controller or a half-written one is refused in one line rather than mixed
@@ -181,19 +182,24 @@ def part_files(folder: Path) -> list[Path]:
 
 WALL_TIME = "wall_seconds"
 """The metric that differs between two runs of one task (wall-clock time [s]): every other is fixed by the
-run's key."""
+run's key (on one machine's arithmetic)."""
+
+MACHINE = "machine"
+"""The field of a record that names the machine that computed it: not part of its result."""
 
 
-def _without_wall_time(record: dict[str, Any]) -> dict[str, Any]:
-    return {**record, "metrics": {k: v for k, v in record["metrics"].items() if k != WALL_TIME}}
+def result_of(record: dict[str, Any]) -> dict[str, Any]:
+    """``record`` without what differs between two runs of one task: its wall time and its machine."""
+    metrics = {k: v for k, v in record["metrics"].items() if k != WALL_TIME}
+    return {**{k: v for k, v in record.items() if k != MACHINE}, "metrics": metrics}
 
 
 def read_runs(folder: Path, label: str | None = None) -> dict[str, StoredRun]:
     """Every stored record of one controller (``folder`` = ``OUT/<label>``), by run key, in
     :func:`run_order`: its JSON files' and its parts', oldest first (JSON files, then parts by number).
     A run stored twice is one run, the newer record kept, where the two are equal but for the wall time
-    (a merge cut short; a run redone for its missing video: every run is seeded by its key); with any
-    other difference, an :class:`EvaluationError`."""
+    and the machine (:func:`result_of`: a merge cut short; a run redone for its missing video: every run
+    is seeded by its key); with any other difference, an :class:`EvaluationError`."""
     label = folder.name if label is None else label
     found: dict[str, StoredRun] = {}
 
@@ -201,7 +207,7 @@ def read_runs(folder: Path, label: str | None = None) -> dict[str, StoredRun]:
         if not isinstance(run, str):
             raise EvaluationError(f"{source}: a record without its run key; delete it to redo that run")
         other = found.get(run)
-        if other is not None and _without_wall_time(other.record) != _without_wall_time(record):
+        if other is not None and result_of(other.record) != result_of(record):
             raise EvaluationError(
                 f"run {label} {run} is stored twice with different records ({other.source}, {source}); "
                 "delete the one to drop"
