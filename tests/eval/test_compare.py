@@ -54,8 +54,9 @@ def test_folders_compare_run_by_run(tmp_path, capsys):
 
 
 def test_the_machines_are_listed_not_compared(tmp_path, capsys):
-    here = {"cpu": "AMD EPYC", "blas": [{"library": "openblas", "version": "0.3.31", "architecture": "Haswell"}]}
-    there = {**here, "blas": [{**here["blas"][0], "architecture": "SkylakeX"}]}
+    blas = {"library": "openblas", "version": "0.3.31", "architecture": "Haswell"}
+    here = {"cpu": "AMD EPYC", "blas": [blas]}
+    there = {**here, "blas": [{**blas, "architecture": "SkylakeX"}]}
     first, second, unsaid = tmp_path / "first", tmp_path / "second", tmp_path / "unsaid"
     records.write_part(first / "agent-rp", "agent-rp", [{**record("stairs/start0"), "machine": here}])
     records.write_part(second / "agent-rp", "agent-rp", [{**record("stairs/start0"), "machine": there}])

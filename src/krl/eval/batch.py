@@ -85,8 +85,8 @@ def _walk(task, flat: list[BuiltModel], models: dict[str, BuiltModel]) -> _Walk:
 
 
 def run_batch(tasks: Sequence) -> list[dict[str, Any]]:
-    """The records (:meth:`krl.eval.evaluate.Task.record`, as :func:`krl.eval.evaluate.run_task` makes them) of ``tasks``,
-    all of one controller and seed and none filmed, in task order."""
+    """The records (:meth:`krl.eval.evaluate.Task.record`, as :func:`krl.eval.evaluate.run_task` makes
+    them) of ``tasks``, all of one controller and seed and none filmed, in task order."""
     spec, seed = tasks[0].controller, tasks[0].seed
     if any(t.controller != spec or t.seed != seed or t.video for t in tasks):
         raise ValueError("a batch holds runs of one controller and seed, none filmed")
