@@ -24,5 +24,8 @@ def test_bench_agent_runs_a_given_config(tmp_path, capsys):
     result = json.loads(capsys.readouterr().out)
     assert (result["num_envs"], result["action_size"]) == (3, 15)  # the config's robots and action
     assert result["env_steps_per_s"] > 0 and result["train_steps"] > 0
+    assert result["update_threads"] == 1
     assert main(["bench", "agent", "--config", str(tmp_path / "missing.json"), *small]) == 2
     assert "missing.json" in capsys.readouterr().err
+    assert main(["bench", "agent", "--config", str(path), *small, "--update-threads", "0"]) == 2
+    assert "--update-threads must be at least 1, got 0" in capsys.readouterr().err

@@ -13,7 +13,8 @@ Measured in one run, on the training height field:
 * ``train_steps_per_s``: PPO training (:func:`krl.agent.train.train`, every core, workers of ``num_envs``
   robots, the default PPO settings with a shorter rollout) over ``train_steps`` env steps in three
   rollouts: the rate of the second and third, each collection and PPO update included, as a long
-  training runs (the workers' start and the first rollout are left out).
+  training runs (the workers' start and the first rollout are left out), the update on
+  ``update_threads`` PyTorch threads (1, as ``krl agent train`` by default; its results depend on it).
   ``train_ratio`` = train / (cores × bare) (target >= 0.3).
 
 The agent is the thesis's agent-rp (:class:`krl.agent.config.AgentConfig`'s defaults) unless a config is
@@ -85,9 +86,11 @@ def bench_agent(
     repeats: int = 3,
     train_steps: int = 72_000,
     config: AgentConfig | None = None,
+    update_threads: int = 1,
 ) -> dict:
     """Run the measurements (module docstring); medians of ``repeats`` alternating loops. ``num_envs``:
-    robots per process (default: the config's, :data:`krl.agent.config.DEFAULT_NUM_ENVS` for agent-rp)."""
+    robots per process (default: the config's, :data:`krl.agent.config.DEFAULT_NUM_ENVS` for agent-rp);
+    ``update_threads``: PyTorch threads of the training's PPO update."""
     from krl.agent.train import train
 
     config = config or AgentConfig()
@@ -118,7 +121,7 @@ def bench_agent(
         # SB3 warns when a rollout is not a whole number of minibatches; the figures stand either way
         warnings.filterwarnings("ignore", "You have specified a mini-batch size", UserWarning)
         run = os.path.join(folder, "run")
-        train(run, train_config, seed=0, progress=False, log=lambda _: None)
+        train(run, train_config, seed=0, progress=False, log=lambda _: None, update_threads=update_threads)
         with open(os.path.join(run, "progress.csv"), newline="") as log:
             logged = list(csv.DictReader(log))  # one row per rollout
         rows = [(float(r["time/total_timesteps"]), float(r["time/wall_seconds"])) for r in logged]
@@ -137,6 +140,7 @@ def bench_agent(
         "cores": cores,
         "train_steps": int(last_steps),
         "train_steps_per_s": round(train_rate, 1),
+        "update_threads": update_threads,
         "train_ratio": round(train_rate / (cores * bare_rate), 3),
         "train_target_ratio": TRAIN_TARGET_RATIO,
         "meets_targets": env_rate / bare_rate >= ENV_TARGET_RATIO

@@ -110,7 +110,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
             from krl.agent.config import AgentConfig
 
             options["config"] = AgentConfig.load(args.config)
-        result = bench_agent(**options, **given(train_steps=args.train_steps))
+        if args.update_threads is not None and args.update_threads < 1:
+            raise CliError(f"--update-threads must be at least 1, got {args.update_threads}")
+        result = bench_agent(
+            **options, **given(train_steps=args.train_steps, update_threads=args.update_threads)
+        )
     else:  # argparse restricts the choices
         raise CliError(f"unknown benchmark {args.target!r}")
     emit(result, args.json)
@@ -206,6 +210,12 @@ def _add_bench(subparsers) -> None:
         type=int,
         help="agent: env steps of the PPO training measurement "
         f"(default {default_of(bench_agent, 'train_steps')})",
+    )
+    p.add_argument(
+        "--update-threads",
+        type=int,
+        help="agent: PyTorch threads of the training's PPO update (default 1, as krl agent train's; "
+        "another count changes a training's last bits)",
     )
     p.add_argument(
         "--config",
