@@ -163,7 +163,6 @@ def _add_view(subparsers) -> None:
 
 def _add_bench(subparsers) -> None:
     """``krl bench`` (defaults: the benchmark functions' own)."""
-    from krl.agent.config import DEFAULT_NUM_ENVS
     from krl.bench.agent import bench_agent
     from krl.bench.evaluate import bench_evaluate
     from krl.bench.mpc import bench_mpc
@@ -199,6 +198,36 @@ def _add_bench(subparsers) -> None:
         type=float,
         help=f"mpc: simulated seconds of walking (default {default_of(bench_mpc, 'seconds'):g})",
     )
+    _add_bench_agent_arguments(p)
+    p.add_argument(
+        "--controller",
+        help="evaluate: the controller, as krl evaluate spells it "
+        f"(default {default_of(bench_evaluate, 'controller')})",
+    )
+    p.add_argument(
+        "--course",
+        action="append",
+        help="evaluate: a course to walk (repeat; default "
+        f"{', '.join(default_of(bench_evaluate, 'courses'))})",
+    )
+    p.add_argument(
+        "--seeds",
+        help=f"evaluate: training seeds of a seed group (default {default_of(bench_evaluate, 'seeds')[0]})",
+    )
+    p.add_argument(
+        "--push-attempts",
+        type=int,
+        help="evaluate: push sweep attempts per force, on every core "
+        f"(default {default_of(bench_evaluate, 'push_attempts')})",
+    )
+    p.set_defaults(func=cmd_bench)
+
+
+def _add_bench_agent_arguments(p) -> None:
+    """``krl bench agent``'s own options."""
+    from krl.agent.config import DEFAULT_NUM_ENVS
+    from krl.bench.agent import bench_agent
+
     p.add_argument(
         "--num-envs",
         type=int,
@@ -222,25 +251,3 @@ def _add_bench(subparsers) -> None:
         help="agent: an agent config file (.json or .toml, such as a run folder's config.json; "
         "default: the thesis's agent-rp)",
     )
-    p.add_argument(
-        "--controller",
-        help="evaluate: the controller, as krl evaluate spells it "
-        f"(default {default_of(bench_evaluate, 'controller')})",
-    )
-    p.add_argument(
-        "--course",
-        action="append",
-        help="evaluate: a course to walk (repeat; default "
-        f"{', '.join(default_of(bench_evaluate, 'courses'))})",
-    )
-    p.add_argument(
-        "--seeds",
-        help=f"evaluate: training seeds of a seed group (default {default_of(bench_evaluate, 'seeds')[0]})",
-    )
-    p.add_argument(
-        "--push-attempts",
-        type=int,
-        help="evaluate: push sweep attempts per force, on every core "
-        f"(default {default_of(bench_evaluate, 'push_attempts')})",
-    )
-    p.set_defaults(func=cmd_bench)
