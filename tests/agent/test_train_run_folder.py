@@ -115,3 +115,17 @@ def test_a_resume_drops_the_log_rows_past_its_checkpoint(tmp_path, small_config)
     train(out, total_steps=768, progress=False, log=lambda _: None)
     assert _logged_steps(out / "progress.00000000512.csv") == [256, 512]
     assert _logged_steps(out / "progress.00000000512.csv") + _logged_steps(log) == [256, 512, 768]
+
+
+def test_every_sitting_records_its_machine_in_the_run_and_the_policy(tmp_path, small_config):
+    out = tmp_path / "run"
+    train(out, small_config, seed=1, total_steps=256, progress=False, log=lambda _: None)
+    train(out, total_steps=512, progress=False, log=lambda _: None)  # resumed
+    sittings = json.loads((out / "run.json").read_text())["sittings"]
+    assert [sitting["env_steps"] for sitting in sittings] == [0, 256]
+    for sitting in sittings:
+        assert sitting["machine"]["cpu"] and sitting["machine"]["torch_cpu"] and sitting["software"]["torch"]
+        assert sitting["started"].endswith("Z")
+    assert load_policy(out / "policy.npz").metadata["training"]["sittings"] == sittings
+    train(out, total_steps=512, progress=False, log=lambda _: None)  # nothing to do: no sitting
+    assert json.loads((out / "run.json").read_text())["sittings"] == sittings

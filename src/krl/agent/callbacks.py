@@ -197,7 +197,8 @@ class Checkpointer(BaseCallback):
 
     def _metadata(self, state: dict[str, Any], device: str, update_threads: int) -> dict[str, Any]:
         """The exported policy's header: kernel, how it was trained (``state``: a checkpoint's state.json;
-        the workers, PPO's ``device`` and its ``update_threads`` of this sitting) and the software."""
+        the workers, PPO's ``device`` and its ``update_threads`` of this sitting; every sitting's machine,
+        :func:`krl.agent.run_folder.record_sitting`) and the software."""
         training = {
             "env_steps": state["num_timesteps"],
             "wall_seconds": state["wall_seconds"],
@@ -209,6 +210,8 @@ class Checkpointer(BaseCallback):
         }
         if "initialized_from" in self.run:
             training["initialized_from"] = self.run["initialized_from"]
+        if "sittings" in self.run:  # where each stretch trained (runs started before 2026-12-07 lack it)
+            training["sittings"] = self.run["sittings"]
         return {"kernel_sha256": self.run["kernel_sha256"], "training": training, "software": self.software}
 
 

@@ -3,7 +3,10 @@
 A new run writes ``run.json`` (seed, kernel file and its SHA-256, workers, device, software versions) and
 ``config.json`` (the resolved :class:`krl.agent.config.AgentConfig`) before anything trains; a resumed one
 is read back and refused, with one line and before anything is written, when it was started with another
-config, seed or run to start from, or when its kernel file is gone. The checkpoints themselves are
+config, seed or run to start from, or when its kernel file is gone. Every sitting, the first and each
+resumption, is appended to ``run.json``'s ``sittings`` (:func:`record_sitting`): the env steps it starts
+from, when, and the machine and software it trains on, since a run's last bits depend on the machine's
+arithmetic and a run may be resumed elsewhere. The checkpoints themselves are
 :mod:`krl.agent.checkpoint`'s.
 """
 
@@ -11,6 +14,7 @@ from __future__ import annotations
 
 import csv
 import json
+import time
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -19,6 +23,7 @@ from krl.agent.checkpoint import Checkpoint, CheckpointError, read_checkpoint
 from krl.agent.config import AgentConfig, AgentConfigError
 from krl.agent.curves import STEPS_COLUMN
 from krl.util.hashing import file_sha256
+from krl.util.machine import machine
 from krl.util.output import write_atomic
 from krl.util.parallel import usable_cores
 
@@ -133,6 +138,23 @@ def _new_run(
     out.mkdir(parents=True, exist_ok=True)
     write_atomic(out / "run.json", (json.dumps(run, indent=2) + "\n").encode())
     write_atomic(out / "config.json", (json.dumps(config.to_json(), indent=2) + "\n").encode())
+    return run
+
+
+def record_sitting(out: Path, run: dict[str, Any], env_steps: int) -> dict[str, Any]:
+    """The run record with this sitting appended to its ``sittings``, written to ``out/run.json``
+    (atomically): ``env_steps`` it starts from, ``started`` (UTC, ISO 8601), ``machine``
+    (:func:`krl.util.machine.machine` and PyTorch's CPU kernels, ``torch_cpu``) and ``software``."""
+    import torch
+
+    sitting = {
+        "env_steps": env_steps,
+        "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "machine": {**machine(), "torch_cpu": torch.backends.cpu.get_cpu_capability()},
+        "software": software(),
+    }
+    run = {**run, "sittings": [*run.get("sittings", []), sitting]}
+    write_atomic(out / "run.json", (json.dumps(run, indent=2) + "\n").encode())
     return run
 
 

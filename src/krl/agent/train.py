@@ -6,7 +6,7 @@
 | file | what |
 | --- | --- |
 | ``config.json`` | the resolved :class:`krl.agent.config.AgentConfig` |
-| ``run.json`` | seed, kernel file and its SHA-256, krl version |
+| ``run.json`` | seed, kernel file and its SHA-256, software; each sitting's start, machine and software |
 | ``checkpoints/<steps>/`` | model, normaliser, ``state.json`` (:mod:`krl.agent.checkpoint`); ``latest`` |
 | ``policy.npz`` | the exported policy (:mod:`krl.agent.policy`), refreshed at every checkpoint |
 | ``progress.csv``, ``events.*`` | the training log, CSV and TensorBoard (:mod:`krl.agent.callbacks`) |
@@ -55,6 +55,7 @@ from krl.agent.run_folder import (
     latest_checkpoint,
     open_run,
     read_checked,
+    record_sitting,
     run_kernel,
     software,
     starting_point,
@@ -231,6 +232,7 @@ def train(
         _load_start(model, out, run, latest, start, done, log)
         model.set_logger(configure(str(out), ["csv", "tensorboard"]))
         curriculum = _curriculum(config, venv, latest)
+        run = record_sitting(out, run, done)
         return _learn(
             model, out, config, run, total, Clock(wall_before), progress, log, curriculum, callbacks
         )
