@@ -18,7 +18,8 @@
 # RUNS (default runs) holds the runs, EVAL (default evaluations/robust) the evaluation records, REPORT
 # (default docs/results/robust) the tables and plots. COMMITTED (default training/robust) holds the run
 # folders a session committed unfinished (config, logs, last checkpoint, policy); one not yet in
-# RUNS/robust is copied there first, and goes on where it stopped.
+# RUNS/robust is copied there first, and goes on where it stopped; COMMITTED/agent-robust holds
+# agent-robust's own seed folders the same way, copied to RUNS/agent-robust.
 set -euo pipefail
 HERE=$(dirname "$0")
 ROOT=$(cd "$HERE/../.." && pwd)
@@ -36,12 +37,16 @@ COMMITTED=${COMMITTED:-$ROOT/training/robust}
 # shellcheck source=../gait/together.sh
 source "$HERE/../gait/together.sh"
 
-if [ -d "$COMMITTED" ]; then
-  for folder in "$COMMITTED"/*/; do
+# copy each committed folder of $1 not yet in $2 there
+restore() {
+  [ -d "$1" ] || return 0
+  for folder in "$1"/*/; do
     name=$(basename "$folder")
-    if [ ! -e "$R/$name" ]; then mkdir -p "$R" && cp -r "$folder" "$R/$name"; fi
+    if [ "$name" != agent-robust ] && [ ! -e "$2/$name" ]; then mkdir -p "$2" && cp -r "$folder" "$2/$name"; fi
   done
-fi
+}
+restore "$COMMITTED" "$R"
+restore "$COMMITTED/agent-robust" "$ROBUST"
 
 # 1. the pilot, and S
 if [ ! -e "$R/heldout-pilot/choice.json" ]; then

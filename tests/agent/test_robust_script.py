@@ -49,10 +49,15 @@ def test_committed_run_folders_go_on_from_where_they_stopped(tmp_path):
     (committed / "config.json").write_text("{}")
     (tmp_path / "runs" / "robust" / "sym-seed150").mkdir(parents=True)  # newer here: kept
     (tmp_path / "committed" / "sym-seed150").mkdir()
-    lines = _run(tmp_path, "false")
+    robust_seed = tmp_path / "committed" / "agent-robust" / "seed345"  # agent-robust's own seeds
+    robust_seed.mkdir(parents=True)
+    (robust_seed / "config.json").write_text('{"seed": 345}')
+    lines = _run(tmp_path, "true")
     assert (tmp_path / "runs/robust/sym-seed215/config.json").read_text() == "{}"
     assert not list((tmp_path / "runs/robust/sym-seed150").iterdir())
     assert any("--out runs/robust/sym-seed215 " in line for line in lines)
+    assert (tmp_path / "runs/agent-robust/seed345/config.json").read_text() == '{"seed": 345}'
+    assert not (tmp_path / "runs/robust/agent-robust").exists()
 
 
 def _index(lines: list[str], *parts: str) -> int:
