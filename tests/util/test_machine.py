@@ -6,8 +6,9 @@ import json
 
 import mujoco
 import numpy as np
+import pytest
 
-from krl.util.machine import machine
+from krl.util.machine import machine, numpy_blas
 
 
 def test_the_machine_is_plain_json_and_names_its_blas():
@@ -17,3 +18,9 @@ def test_the_machine_is_plain_json_and_names_its_blas():
     assert found["cpu"] and found["arch"]
     assert found["blas"], "NumPy's BLAS is loaded, so threadpoolctl sees it"
     assert {"library", "version", "architecture"} == set(found["blas"][0])
+
+
+def test_another_blas_in_the_process_changes_nothing():
+    before = numpy_blas()
+    pytest.importorskip("scipy.linalg")  # SciPy's wheels bring their own OpenBLAS
+    assert numpy_blas() == before and len(before) == 1
