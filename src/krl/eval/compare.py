@@ -25,8 +25,9 @@ from typing import Any
 from krl.eval.records import MACHINE, WALL_TIME, controller_labels, read_runs
 from krl.task.episode import ending
 
-IGNORED: tuple[str, ...] = (f"metrics.{WALL_TIME}",)
-"""Fields that differ between two runs of the same task (wall-clock time)."""
+IGNORED: tuple[str, ...] = (f"metrics.{WALL_TIME}", MACHINE)
+"""Fields that differ between two runs of the same task (wall-clock time, the machine that computed it),
+each with every field under it (``machine.cpu``)."""
 
 OUTCOMES: tuple[str, ...] = (
     "metrics.success",
@@ -69,7 +70,7 @@ def _difference(a: Any, b: Any) -> float | None:
 def compare_records(a: dict[str, Any], b: dict[str, Any], ignored: Sequence[str] = IGNORED) -> dict[str, Any]:
     """The fields in which two records of one run differ: ``{field: [a's, b's]}`` (missing: None)."""
     flat_a, flat_b = (flatten(_with_ending(record)) for record in (a, b))
-    keys = [key for key in dict.fromkeys([*flat_a, *flat_b]) if key not in ignored]
+    keys = [key for key in dict.fromkeys([*flat_a, *flat_b]) if not _under(key, ignored)]
     differing = {}
     for key in keys:
         x, y = flat_a.get(key), flat_b.get(key)
@@ -78,9 +79,13 @@ def compare_records(a: dict[str, Any], b: dict[str, Any], ignored: Sequence[str]
     return differing
 
 
+def _under(key: str, fields: Sequence[str]) -> bool:
+    """Whether the dotted ``key`` is one of ``fields`` or lies under one."""
+    return any(key == field or key.startswith(f"{field}.") for field in fields)
+
+
 def _with_ending(record: dict[str, Any]) -> dict[str, Any]:
-    """``record`` without its machine, with ``metrics.ended`` (an older record's from its outcome fields)."""
-    record = {key: value for key, value in record.items() if key != MACHINE}
+    """``record`` with ``metrics.ended`` (an older record's from its outcome fields)."""
     metrics = record.get("metrics")
     if not isinstance(metrics, dict) or "ended" in metrics or "fell" not in metrics:
         return record
