@@ -5,11 +5,12 @@
 #   2. the candidate arms, 2e7 env steps, seeds 150 and 215, two runs at a time: sym, curriculum and
 #      sym-curriculum (about 12 h on 2 cores);
 #   3. the held-out rule among them against agent-gait-ground's seeds 150 and 215; where the choice stands,
-#      its seeds 345 and 556: agent-robust's four seeds; then rp-sym (agent-rp's recipe with S, 2 seeds), which
-#      the rule does not read (run after it, so that agent-robust's seeds come first);
+#      its seeds 345 and 556: agent-robust's four seeds;
 #   4. every run on the thesis and harder courses, the default and the balanced push sweeps and the friction
 #      sweep, beside agent-gait-ground, agent-rp and the expert, then the report;
-#   5. sample efficiency: each arm's training success curve against its reference's final level.
+#   5. sample efficiency: each arm's training success curve against its reference's final level;
+#   6. rp-sym (agent-rp's recipe with S, 2 seeds), which nothing above reads, then its evaluation (the runs
+#      evaluated already are not run again), the report again and its curve.
 # Every step resumes where it stopped and a finished one is not redone: after an interruption run this
 # again. One SIGTERM (or Ctrl-C) to this script passes on to the running commands, which checkpoint.
 #
@@ -97,30 +98,30 @@ stands=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["basel
   "$R/heldout-robust/choice.json")
 echo "the choice stands against agent-gait-ground: $stands"
 controllers=""
-for arm in sym curriculum sym-curriculum rp-sym; do controllers+=" --controller 'agent:$R/$arm-seed*'"; done
+for arm in sym curriculum sym-curriculum; do controllers+=" --controller 'agent:$R/$arm-seed*'"; done
 if [ "$stands" = "True" ]; then
   together \
     "krl agent train --out $ROBUST/seed345 --seed 345 --config $R/heldout-robust/chosen-config.json --quiet" \
     "krl agent train --out $ROBUST/seed556 --seed 556 --config $R/heldout-robust/chosen-config.json --quiet"
   controllers="--controller agent:$ROBUST$controllers"
 fi
+controllers+=" --controller agent:gait-ground --controller agent --controller expert"
 
-# the faithful recipe with S: reported beside the arms, not a candidate
-together "$(train rp-sym 150 "$R/configs/rp-sym.json")" "$(train rp-sym 215 "$R/configs/rp-sym.json")"
-
-# 4. the evaluation, the baselines' records copied from agent-gait-ground's (same files by hash)
+# 4. the evaluation of the controllers in $1, the baselines' records copied from agent-gait-ground's (same
+# files by hash); a run evaluated already is not run again
 for baseline in agent-gait-ground agent-rp expert-stance0.2; do
   if [ -d "$ROOT/evaluations/gait/$baseline" ] && [ ! -e "$EVAL/$baseline" ]; then
     mkdir -p "$EVAL" && cp -r "$ROOT/evaluations/gait/$baseline" "$EVAL/$baseline"
   fi
 done
-controllers+=" --controller agent:gait-ground --controller agent --controller expert"
-together "krl evaluate $controllers --course thesis --course harder --push-sweep --attempts 50 \
---friction-sweep --out $EVAL --quiet"
-together "krl evaluate $controllers --push-sweep --push-directions balanced --attempts 48 \
---out $EVAL-balanced --quiet"
-together "krl report --results $EVAL --out $REPORT"
-together "krl report --results $EVAL-balanced --out $REPORT-balanced"
+evaluate() {
+  together "krl evaluate $1 --course thesis --course harder --push-sweep --attempts 50 --friction-sweep \
+--out $EVAL --quiet"
+  together "krl evaluate $1 --push-sweep --push-directions balanced --attempts 48 --out $EVAL-balanced --quiet"
+  together "krl report --results $EVAL --out $REPORT"
+  together "krl report --results $EVAL-balanced --out $REPORT-balanced"
+}
+evaluate "$controllers"
 
 # 5. sample efficiency (docs/agent-robust.md): the env steps at which each arm's mean training success reaches
 # its reference's final one: the gait-ground arms against agent-gait-ground's seeds 150 and 215, rp-sym against
@@ -129,5 +130,8 @@ GROUND_RUNS=$ROOT/training/agent-studies/gait-ground/trials/list
 group() { echo "--group $1=$R/$1-seed150,$R/$1-seed215"; }
 together "krl agent curves --group baseline=$GROUND_RUNS/pyramids-pushes-seed150,$GROUND_RUNS/pyramids-pushes-seed215 \
 $(group sym) $(group curriculum) $(group sym-curriculum) --reach baseline --out $REPORT/curves"
+# 6. the faithful recipe with S: reported beside the arms, not a candidate; evaluated the same way
+together "$(train rp-sym 150 "$R/configs/rp-sym.json")" "$(train rp-sym 215 "$R/configs/rp-sym.json")"
+evaluate "$controllers --controller 'agent:$R/rp-sym-seed*'"
 together "krl agent curves --group agent-rp=$ROOT/training/agent-rp-seed345,$ROOT/training/agent-rp-seed556 \
 $(group rp-sym) --reach agent-rp --out $REPORT/curves-rp"

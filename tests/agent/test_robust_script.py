@@ -1,6 +1,7 @@
 """examples/robust/agent-robust.sh against a stand-in ``krl`` that logs its arguments: the pilot and its
 choice, the winner's run going on as sym's seed 150, the arms' configs and runs in order, the held-out
-rule deciding whether agent-robust's seeds train, both evaluations, and the sample-efficiency curves."""
+rule deciding whether agent-robust's seeds train, both evaluations and the sample-efficiency curves, then
+rp-sym and its evaluation."""
 
 from __future__ import annotations
 
@@ -83,22 +84,25 @@ def test_the_pipeline_runs_the_pre_registered_steps_in_order(tmp_path, stands):
     rule = _index(lines, "--choose sym,curriculum,sym-curriculum", "--baseline baseline", "broad-pushes.json")
     robust_seeds = [i for i, line in enumerate(lines) if "--out runs/agent-robust/seed" in line]
     assert len(robust_seeds) == (2 if stands == "true" else 0)
-    # a pair at a time: the candidates, the rule, agent-robust's seeds where it stands, then rp-sym, which the
-    # rule does not read
-    steps = [
-        *candidates,
-        [rule, rule],
-        *([robust_seeds] if robust_seeds else []),
-        pair("runs/robust/rp-sym-seed"),
-    ]
+    # a pair at a time: the candidates, the rule, agent-robust's seeds where it stands, the evaluation; then
+    # rp-sym, which nothing before reads, and its evaluation
+    steps = [*candidates, [rule, rule], *([robust_seeds] if robust_seeds else [])]
     assert all(earlier[1] < later[0] for earlier, later in itertools.pairwise(steps))
-    evaluate = _index(lines, "evaluate", "--friction-sweep", "--out evals ")
-    balanced = _index(lines, "evaluate", "--push-directions balanced", "--out evals-balanced")
-    assert steps[-1][1] < evaluate < balanced
-    assert ("--controller agent:runs/agent-robust " in lines[evaluate]) == (stands == "true")
+    evaluations = [i for i, line in enumerate(lines) if "evaluate" in line and "--out evals " in line]
+    balanced = [i for i, line in enumerate(lines) if "--push-directions balanced --attempts 48" in line]
+    reports = [
+        i for i, line in enumerate(lines) if "report --results evals-balanced --out report-balanced" in line
+    ]
+    assert len(evaluations) == len(balanced) == len(reports) == 2
     curves = _index(lines, "agent curves", "--reach baseline", "--group sym=runs/robust/sym-seed150,")
+    rp_sym = pair("runs/robust/rp-sym-seed")
     curves_rp = _index(
         lines, "agent curves", "--reach agent-rp", "--group rp-sym=runs/robust/rp-sym-seed150,"
     )
-    assert balanced < curves < curves_rp and "--out report/curves" in lines[curves]
+    assert steps[-1][1] < evaluations[0] < balanced[0] < reports[0] < curves < rp_sym[0]
+    assert rp_sym[1] < evaluations[1] < balanced[1] < reports[1] < curves_rp
+    assert ("--controller agent:runs/agent-robust " in lines[evaluations[0]]) == (stands == "true")
+    assert "rp-sym" not in lines[evaluations[0]] and "rp-sym" not in lines[balanced[0]]
+    assert "agent:runs/robust/rp-sym-seed*" in lines[evaluations[1]]
+    assert "--out report/curves" in lines[curves]
     assert "pyramids-pushes-seed215 " in lines[curves] and "agent-rp-seed556 " in lines[curves_rp]
