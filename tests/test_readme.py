@@ -7,8 +7,9 @@ argparse keeps the last value of a repeated option, so ``krl collect --out data/
 line cannot go untested. A command runs in its own copy of a workspace (:func:`workspace`) that holds the
 inputs the README's commands name, made small by krl's own commands: ``data/base`` (an expert dataset),
 ``runs/kernel-base`` and ``runs/studies/variants/ind-seed150`` (one-epoch kernels), ``runs/agent-rp`` (a
-tiny agent), ``runs/eval`` (an evaluation for ``krl report``), ``mine.toml`` (a one-waypoint course) and
-``study-tiny.json`` (tiny trials for ``krl agent study``).
+tiny agent), ``runs/eval`` (an evaluation for ``krl report``), ``mine.toml`` (a one-waypoint course),
+``study-tiny.json`` (tiny trials for ``krl agent study``) and ``loss.json`` (a config change for ``krl agent
+config``).
 """
 
 from __future__ import annotations
@@ -123,6 +124,7 @@ SMOKE: dict[str, tuple[str, str | None]] = {
     ),
     "krl report": ("", None),
     "krl agent digest --json": ("--envs 1 --steps 5", None),
+    "krl agent config runs/agent-rp/config.json loss.json --out my.json": ("", None),
     "krl convert-results runs/eval": ("", None),
     "krl compare-results runs/eval runs/eval": ("", None),
     "krl demo --controller agent:gait-ground": ("--course mine.toml --workers 1 --no-video --quiet", None),
@@ -174,7 +176,7 @@ WORKSPACE_COMMANDS = (
     "agent train --out runs/agent-rp --seed 150 --config agent-tiny.json --quiet",
     "evaluate --controller kernel --course mine.toml --workers 1 --quiet",
 )
-"""The ``krl`` commands that make the workspace's inputs (after ``mine.toml`` and ``agent-tiny.json``)."""
+"""The ``krl`` commands that make the workspace's inputs (after the files :func:`workspace` writes)."""
 
 
 def readme_commands() -> list[str]:
@@ -213,6 +215,7 @@ def workspace(tmp_path_factory) -> Path:
     (folder / "mine.toml").write_text(MINE_TOML)
     (folder / "agent-tiny.json").write_text(TINY_AGENT)
     (folder / "study-tiny.json").write_text(TINY_STUDY)
+    (folder / "loss.json").write_text('{"ppo": {"symmetry": "loss"}}')
     with contextlib.chdir(folder):
         for command in WORKSPACE_COMMANDS:
             assert main(shlex.split(command)) == 0, command

@@ -21,7 +21,7 @@ def test_every_planned_command_is_a_valid_krl_command(tmp_path, quick):
         parser.parse_args(list(step.argv))  # exits (SystemExit) on an unknown option
     if quick:
         assert all(str(tmp_path / "docs") not in step.command for step in steps)
-        assert sum(step.minutes for step in steps) < 65  # about an hour, docs/reproduce.md
+        assert sum(step.minutes for step in steps) < 80  # about 75 min, docs/reproduce.md
 
 
 def test_done_steps_are_skipped_and_a_failure_resumes_there(tmp_path):
@@ -100,7 +100,8 @@ def test_agent_gait_is_chosen_from_the_ablation_on_the_pipelines_kernel_and_trai
     groups = f"--controller agent:{tmp_path}/agent-gait --controller agent:{tmp_path}/agent-gait-ground"
     assert f"{groups} --controller agent:{trials}/residual-ext-seed*" in scoring
     assert "--course harder --push-sweep --attempts 50 --friction-sweep" in scoring
-    assert list(steps)[-2:] == ["evaluate-gait", "report-gait"]
+    names = list(steps)
+    assert names[names.index("evaluate-gait") + 1] == "report-gait"
     ground = f"{tmp_path}/agent-studies/gait-ground/trials/list"
     assert "--seeds 345,150 --jobs 2" in steps["gait-ground"].command
     assert json.loads(steps["gait-ground"].config[1]) == json.loads(ablation.config[1])
@@ -121,6 +122,61 @@ def test_agent_gait_is_chosen_from_the_ablation_on_the_pipelines_kernel_and_trai
     assert "agent-gait-ground" not in quick["evaluate-gait"].command  # no seed group from 8 000-step runs
     quick_ground = f"{tmp_path}/quick/agent-studies/gait-ground/trials/list"
     assert f"--controller agent:{quick_ground}/pyramids-seed*" in quick["evaluate-gait"].command
+
+
+def test_agent_robust_is_chosen_among_its_arms_and_trained_for_the_other_seeds(tmp_path):
+    steps = {step.name: step for step in plan(tmp_path, tmp_path / "docs", seeds=[345, 150, 215])}
+    names = list(steps)
+    robust = f"{tmp_path}/robust"
+    recipe = f"{tmp_path}/agent-studies/gait-ground/trials/list/pyramids-pushes-seed345/config.json"
+    augment = steps["robust-config-augment"]
+    assert augment.command.startswith(
+        f"krl agent config {recipe} {tmp_path}/robust-config-augment.json --out"
+    )
+    assert json.loads(augment.config[1]) == {"ppo": {"symmetry": "augment"}}
+    pilot = steps["robust-pilot-loss-seed345"].command
+    assert f"--out {robust}/pilot-loss-seed345 --seed 345 --config {robust}/configs/loss.json" in pilot
+    assert "--steps 4000000" in pilot
+    chosen = f"{robust}/heldout-pilot/chosen-config.json"
+    assert steps["robust-config-sym"].command == f"krl agent config {chosen} --out {robust}/configs/sym.json"
+    assert (
+        f"agent config {chosen} {tmp_path}/robust-config-sym-curriculum.json"
+        in steps["robust-config-sym-curriculum"].command
+    )
+    arms = [name for name in names if name.startswith(("robust-sym", "robust-curriculum"))]
+    assert arms == [
+        f"robust-{arm}-seed{seed}" for arm in ("sym", "curriculum", "sym-curriculum") for seed in (345, 150)
+    ]
+    rule = steps["robust-heldout"].command
+    assert f"--env {robust}/configs/broad-pushes.json --choose sym,curriculum,sym-curriculum" in rule
+    assert (
+        f"--baseline baseline --baseline-env {recipe}" in rule
+        and f"--seed-group {tmp_path}/agent-robust" in rule
+    )
+    order = [
+        "robust-pilot-augment-seed345",
+        "robust-heldout-pilot",
+        "robust-config-sym-curriculum",
+        *arms,
+        "robust-heldout",
+        "agent-robust-seed215",
+        "robust-evaluate",
+        "robust-evaluate-balanced",
+        "robust-report",
+        "robust-curves",
+    ]
+    assert [names.index(name) for name in order] == sorted(names.index(name) for name in order)
+    assert [name for name in names if name.startswith("agent-robust-seed")] == ["agent-robust-seed215"]
+    assert f"--config {robust}/heldout-robust/chosen-config.json" in steps["agent-robust-seed215"].command
+    assert (
+        f"--controller agent:{tmp_path}/agent-robust --controller agent:{robust}/sym-seed*"
+        in steps["robust-evaluate-balanced"].command
+    )
+    assert "--push-directions balanced --attempts 48" in steps["robust-evaluate-balanced"].command
+    quick = {step.name: step for step in plan(tmp_path, tmp_path / "docs", quick=True)}
+    assert "--steps 8000" in quick["robust-sym-curriculum-seed150"].command
+    assert not [name for name in quick if name.startswith("agent-robust-seed")]
+    assert "agent-robust" not in quick["robust-evaluate"].command  # no seed group from 8 000-step runs
 
 
 def test_reproduce_seeds_option_reaches_the_plan(tmp_path, capsys):

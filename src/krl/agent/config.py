@@ -13,6 +13,7 @@ import json
 import math
 import types
 import typing
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -398,23 +399,51 @@ class AgentConfig:
     @classmethod
     def load(cls, path: str | Path) -> AgentConfig:
         """Read a JSON (``.json``) or TOML (``.toml``) config file."""
-        path = Path(path)
-        try:
-            text = path.read_text()
-        except OSError as error:
-            raise AgentConfigError(f"cannot read agent config {path}: {error.strerror}") from None
-        try:
-            if path.suffix == ".toml":
-                import tomllib
+        return cls.from_json(read_table(path), str(path))
 
-                data = tomllib.loads(text)
-            else:
-                data = json.loads(text)
-        except ValueError as error:
-            raise AgentConfigError(
-                f"agent config {path} is not valid {path.suffix[1:] or 'JSON'}: {error}"
-            ) from None
-        return cls.from_json(data, str(path))
+    @classmethod
+    def load_layers(cls, paths: Sequence[str | Path]) -> AgentConfig:
+        """Read config files and lay each over those before it (:func:`lay_over`): the first a recipe, the
+        rest its changes (``{"ppo": {"symmetry": "loss"}}``). An invalid result names the first file whose
+        layer made it so."""
+        if not paths:
+            raise AgentConfigError("no agent config file to read")
+        merged: list[dict[str, Any]] = []
+        for table in map(read_table, paths):
+            merged.append(lay_over(merged[-1], table) if merged else table)
+        try:
+            return cls.from_json(merged[-1], " + ".join(map(str, paths)))
+        except AgentConfigError:
+            for path, table in zip(paths, merged, strict=True):
+                cls.from_json(table, str(path))
+            raise
+
+
+def read_table(path: str | Path) -> dict[str, Any]:
+    """The settings of a JSON (``.json``) or TOML (``.toml``) config file, unchecked."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as error:
+        raise AgentConfigError(f"cannot read agent config {path}: {error.strerror}") from None
+    try:
+        if path.suffix == ".toml":
+            import tomllib
+
+            return tomllib.loads(text)
+        return json.loads(text)
+    except ValueError as error:
+        raise AgentConfigError(
+            f"agent config {path} is not valid {path.suffix[1:] or 'JSON'}: {error}"
+        ) from None
+
+
+def lay_over(base: Any, layer: Any) -> Any:
+    """``layer`` laid over ``base``: where both are tables, key by key (recursively); anything else in
+    ``layer`` replaces what ``base`` has (a list, a number, a reward named over a reward table)."""
+    if not (isinstance(base, dict) and isinstance(layer, dict)):
+        return layer
+    return {**base, **{key: lay_over(base.get(key), value) for key, value in layer.items()}}
 
 
 def _from_mapping(cls: type, data: Any, where: str):

@@ -260,6 +260,7 @@ def register(subparsers) -> None:
         add(group)
     _add_rhythm(group)
     _add_digest(group)
+    _add_config(group)
 
 
 def _add_train(group) -> None:
@@ -516,3 +517,41 @@ def _add_digest(group) -> None:
     add_field_option(p, "--seed", transition_digest, type=int, help="seed of robot 0 and of the actions")
     _add_output(p)
     p.set_defaults(func=run_digest)
+
+
+def run_config(args: argparse.Namespace) -> int:
+    import json
+
+    from krl.agent.config import AgentConfig, AgentConfigError
+    from krl.util.output import write_atomic
+
+    try:
+        config = AgentConfig.load_layers(args.layers)
+    except AgentConfigError as error:
+        raise CliError(str(error)) from None
+    text = json.dumps(config.to_json(), indent=2) + "\n"
+    if args.out is None:
+        sys.stdout.write(text)
+        return 0
+    write_atomic(Path(args.out), text)
+    emit({"config": args.out, "layers": args.layers}, args.json)
+    return 0
+
+
+def _add_config(group) -> None:
+    """``krl agent config``."""
+    p = group.add_parser(
+        "config",
+        help="an agent config laid together from files, each over those before it (a recipe, then its "
+        "changes), checked and written whole",
+    )
+    p.add_argument(
+        "layers",
+        nargs="+",
+        metavar="CONFIG",
+        help="agent config files (.json or .toml): the first a recipe, each next one a change laid over it "
+        "(tables merge key by key, anything else replaces)",
+    )
+    p.add_argument("--out", help="write the config here (default: print it)")
+    _add_output(p)
+    p.set_defaults(func=run_config)

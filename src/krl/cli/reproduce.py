@@ -32,7 +32,7 @@ def register(subparsers) -> None:
     p.add_argument(
         "--docs", default="docs", help="where the tables and figures go (with --quick: RUNS/quick/docs)"
     )
-    p.add_argument("--quick", action="store_true", help="a cut-down pipeline (well under an hour here)")
+    p.add_argument("--quick", action="store_true", help="a cut-down pipeline (about 75 min here)")
     p.add_argument(
         "--seeds",
         help="training seeds of the agents and the kernel studies (default: the thesis's 150,215,345,556; "

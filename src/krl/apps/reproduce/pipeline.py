@@ -6,7 +6,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from krl.apps.reproduce.table import ByMode, Fragment, Row
+from krl.apps.reproduce.robust import robust_rows
+from krl.apps.reproduce.table import ByMode, Fragment, Row, chosen_seed_rows
 from krl.util.thesis import COMPARISON_EPOCHS, THESIS_SEEDS
 
 COURSES: tuple[str, ...] = ("tabletop", "seesaw", "stairs", "sinusoid", "flat", "slope", "heightfield")
@@ -308,23 +309,6 @@ def _gait_study_row(study: str, makes: str, minutes: ByMode[float], seeds: Seque
     )
 
 
-def _chosen_seed_rows(group: str, heldout: str, seeds: Sequence[int]) -> tuple[Row, ...]:
-    """The trainings of seed group ``group``'s other ``seeds`` into ``RUNS/<group>/seed<S>``, from the
-    recipe the held-out choice in ``RUNS/<heldout>`` wrote (``chosen-config.json``)."""
-    return tuple(
-        Row(
-            f"{group}-seed{seed}",
-            f"{group} (seed {seed})",
-            120,
-            (
-                f"agent train --out {{runs}}/{group}/seed{seed} --seed {seed}",
-                f"--config {{runs}}/{heldout}/chosen-config.json --quiet",
-            ),
-        )
-        for seed in seeds
-    )
-
-
 def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
     """agent-gait as ``examples/gait/agent-gait.sh`` makes it (docs/agent-gait.md): the ablation on the
     pipeline's kernel-ext, the choice on held-out episodes, the chosen recipe's other seeds."""
@@ -352,7 +336,7 @@ def _gait_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
                 "--seed-group {runs}/agent-gait --quiet",
             ),
         ),
-        *_chosen_seed_rows("agent-gait", "heldout-gait", more),
+        *chosen_seed_rows("agent-gait", "heldout-gait", more),
     )
 
 
@@ -395,7 +379,7 @@ def _ground_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
                 "--out {runs}/heldout-ground --seed-group {runs}/agent-gait-ground --quiet",
             ),
         ),
-        *_chosen_seed_rows("agent-gait-ground", "heldout-ground", more),
+        *chosen_seed_rows("agent-gait-ground", "heldout-ground", more),
     )
 
 
@@ -442,8 +426,8 @@ def _gait_scoring_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
 
 def pipeline(seeds: Sequence[int]) -> tuple[Row, ...]:
     """Every step, in order (expert data -> kernels -> studies, figures -> agents of each seed ->
-    evaluation -> report -> agent-gait -> agent-gait-ground -> their evaluation and report) for the
-    training ``seeds``."""
+    evaluation -> report -> agent-gait -> agent-gait-ground -> their evaluation and report -> agent-robust,
+    its evaluation and report) for the training ``seeds``."""
     agents = tuple(_agent_row(agent, seed) for agent in AGENTS for seed in seeds)
     gait = (*_gait_rows(seeds), *_ground_rows(seeds), *_gait_scoring_rows(seeds))
-    return (*DATA_AND_KERNELS, *agents, *_scoring_rows(seeds), *gait)
+    return (*DATA_AND_KERNELS, *agents, *_scoring_rows(seeds), *gait, *robust_rows(*_gait_seed_split(seeds)))

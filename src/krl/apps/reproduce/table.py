@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
 
@@ -86,3 +86,20 @@ class Row:
         if self.config is not None:
             config = (places["config"], json.dumps(_fill(self.config.pick(quick), places), indent=2) + "\n")
         return Step(self.name, argv, _pick(self.minutes, quick), self.makes, config)
+
+
+def chosen_seed_rows(group: str, heldout: str, seeds: Sequence[int]) -> tuple[Row, ...]:
+    """The trainings of seed group ``group``'s other ``seeds`` into ``RUNS/<group>/seed<S>``, from the
+    recipe the held-out choice in ``RUNS/<heldout>`` wrote (``chosen-config.json``)."""
+    return tuple(
+        Row(
+            f"{group}-seed{seed}",
+            f"{group} (seed {seed})",
+            120,
+            (
+                f"agent train --out {{runs}}/{group}/seed{seed} --seed {seed}",
+                f"--config {{runs}}/{heldout}/chosen-config.json --quiet",
+            ),
+        )
+        for seed in seeds
+    )
