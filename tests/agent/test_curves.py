@@ -41,6 +41,15 @@ def test_a_group_is_the_mean_and_spread_of_its_runs_on_a_common_grid(tmp_path):
     np.testing.assert_allclose(success["std"], [0.025, 0.05, 0.075])
 
 
+def test_runs_shorter_than_a_grid_step_meet_at_their_common_end(tmp_path):
+    """Smoke runs (``krl reproduce --quick``'s 8 000 steps) have no grid point: they compare at their end."""
+    a = fake_run(tmp_path / "a", [4000, 8000], [1.0, 3.0], [0.0, 0.5])
+    b = fake_run(tmp_path / "b", [4000, 6000], [1.0, 2.0], [0.0, 0.25])
+    curve = group_curve([a, b], "episode/success_rate")
+    np.testing.assert_allclose(curve["steps"], [6000])
+    np.testing.assert_allclose(curve["mean"], [0.25])  # a's 0.25 at 6 000 (interpolated) and b's
+
+
 def test_runs_that_never_logged_a_column_are_left_out(tmp_path):
     old = fake_run(tmp_path / "old", [0, 200_000], [1.0, 2.0])
     new = fake_run(tmp_path / "new", [0, 200_000], [1.0, 4.0], [0.0, 1.0])

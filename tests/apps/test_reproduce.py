@@ -175,6 +175,7 @@ def test_agent_robust_is_chosen_among_its_arms_and_trained_for_the_other_seeds(t
     assert "--push-directions balanced --attempts 48" in steps["robust-evaluate-balanced"].command
     quick = {step.name: step for step in plan(tmp_path, tmp_path / "docs", quick=True)}
     assert "--steps 8000" in quick["robust-sym-curriculum-seed150"].command
+    assert "--attempts 4 --magnitudes 350,600" in quick["robust-evaluate-balanced"].command  # 1 per quarter
     assert not [name for name in quick if name.startswith("agent-robust-seed")]
     assert "agent-robust" not in quick["robust-evaluate"].command  # no seed group from 8 000-step runs
 

@@ -88,7 +88,8 @@ def plot_training_curves(runs: list[Path], out: Path) -> list[Path]:
 
 def group_curve(runs: list[Path], column: str) -> dict[str, np.ndarray]:
     """Mean and standard deviation over ``runs`` of one ``progress.csv`` column, on a common grid of env
-    steps (every :data:`GRID_STEPS`, up to the shortest run; linear interpolation between logged rows).
+    steps (every :data:`GRID_STEPS`, up to the shortest run; the shortest run's last step alone where that
+    is no grid point; linear interpolation between logged rows).
 
     Returns ``{"steps", "mean", "std", "runs"}``: arrays of shape (G,), and the number of runs that log the
     column (runs without it are left out; no run: empty arrays).
@@ -106,6 +107,8 @@ def group_curve(runs: list[Path], column: str) -> dict[str, np.ndarray]:
     start = max(steps[0] for steps, _ in curves)
     end = min(steps[-1] for steps, _ in curves)
     grid = np.arange(np.ceil(start / GRID_STEPS) * GRID_STEPS, end + 1, GRID_STEPS)
+    if not grid.size:  # runs shorter than a grid step (a smoke run): compared where all have logged
+        grid = np.array([end], dtype=float)
     stacked = np.array([np.interp(grid, steps, values) for steps, values in curves])
     return {"steps": grid, "mean": stacked.mean(axis=0), "std": stacked.std(axis=0), "runs": len(curves)}
 

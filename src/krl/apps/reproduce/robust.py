@@ -157,7 +157,7 @@ def _scoring_rows(ablation: Sequence[int], more: Sequence[int]) -> tuple[Row, ..
                 "evaluate",
                 *controllers,
                 "--push-sweep --push-directions balanced",
-                ByMode("--attempts 48", "--attempts 4"),
+                ByMode("--attempts 48", "--attempts 4 --magnitudes 350,600"),
                 "--workers 2 --out {runs}/eval-robust-balanced --quiet",
             ),
         ),
