@@ -522,13 +522,10 @@ def _add_digest(group) -> None:
 def run_config(args: argparse.Namespace) -> int:
     import json
 
-    from krl.agent.config import AgentConfig, AgentConfigError
+    from krl.agent.config import AgentConfig
     from krl.util.output import write_atomic
 
-    try:
-        config = AgentConfig.load_layers(args.layers)
-    except AgentConfigError as error:
-        raise CliError(str(error)) from None
+    config = AgentConfig.load_layers(args.layers)  # an AgentConfigError is a one-line error (krl.cli.main)
     text = json.dumps(config.to_json(), indent=2) + "\n"
     if args.out is None:
         sys.stdout.write(text)
