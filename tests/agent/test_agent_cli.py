@@ -82,6 +82,24 @@ def test_shipped_agent_gait_ground_is_agent_gaits_recipe_on_pyramids_and_stronge
     assert replace(ground, env=replace(ground.env, **as_gait)) == gait
 
 
+@pytest.mark.parametrize("seed", [150, 215, 345, 556])
+def test_shipped_agent_robust_is_agent_gait_grounds_recipe_with_mirror_loss_and_curriculum(seed, capsys):
+    """agent-robust (docs/agent-robust.md): agent-gait-ground's config, symmetric and with a curriculum."""
+    assert main(["agent", "info", "--policy", f"robust@{seed}", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["policy"] == f"krl/agent/policies/agent-robust/seed{seed}.npz"
+    assert (info["reward"], info["kernel"], info["training"]["seed"]) == ("rp", "ext", seed)
+    assert info["training"]["env_steps"] >= 20_000_000
+    ground, robust = (
+        load_policy(one_policy(f"{name}@{seed}")[1]).config for name in ("gait-ground", "robust")
+    )
+    assert (robust.ppo.symmetry, robust.env.push_curriculum) == ("loss", True)
+    as_ground = replace(
+        robust, env=replace(robust.env, push_curriculum=False), ppo=replace(robust.ppo, symmetry="none")
+    )
+    assert as_ground == ground
+
+
 def test_the_faithful_agent_acts_with_residuals_only(capsys):
     assert main(["agent", "info", "--json"]) == 0
     (part,) = json.loads(capsys.readouterr().out)["action"]

@@ -8,7 +8,7 @@
 | ``kernel:ext`` | a shipped kernel by name |
 | ``kernel:PATH`` | a kernel file (``krl kernel train`` output) |
 | ``agent`` | the shipped residual agent agent-rp (kernel + PPO residuals), one policy per training seed |
-| ``agent:base`` | a shipped agent by name (``base``, ``gait``, ``gait-ground``) |
+| ``agent:base`` | a shipped agent by name (``base``, ``gait``, ``gait-ground``, ``robust``) |
 | ``agent:rp@215`` | one seed of a seed group (label ``agent-rp-seed215``) |
 | ``agent:PATH`` | a policy file (``krl agent train`` output) or a seed group (per-seed files or runs) |
 | ``gait:capture=1,rate=2`` | kernel-ext driven by a scripted rule after pushes (:mod:`krl.agent.scripted`) |
