@@ -246,13 +246,30 @@ def test_a_kernel_npz_takes_its_folders_name(tmp_path):
     from krl.kernel.registry import shipped_model_path
 
     paths = {}
-    for folder, model in (("mine", "base"), ("kernel-ext", "ext")):
+    for folder, model in (("mine", "base"), ("kernel-ext", "base"), ("kernel-base", "base")):
         paths[folder] = tmp_path / folder / "kernel.npz"
         paths[folder].parent.mkdir()
         shutil.copy(shipped_model_path(model), paths[folder])
     assert parse_controller(f"kernel:{paths['mine']}").label == "kernel-mine"
     ext = parse_controller(f"kernel:{paths['kernel-ext']}")
     assert ext.label == f"kernel-ext-{ext.content_hash[:6]}"  # "ext" is a shipped kernel's name
+    # a byte-identical copy of the shipped kernel it is named after is that kernel
+    assert parse_controller(f"kernel:{paths['kernel-base']}").label == "kernel-base"
+
+
+def test_a_seed_group_named_as_a_shipped_agent_takes_its_label_only_as_a_byte_identical_copy(tmp_path):
+    import shutil
+
+    from krl.agent.policy import policy_artifacts
+
+    whole, part = tmp_path / "whole" / "agent-gait-ground", tmp_path / "part" / "agent-gait-ground"
+    for group, seeds in ((whole, 4), (part, 2)):  # all four seeds' files, and two of them
+        group.mkdir(parents=True)
+        for seed, path in policy_artifacts("gait-ground")[1][:seeds]:
+            shutil.copy(path, group / f"seed{seed}.npz")
+    assert parse_controller(f"agent:{whole}").label == "agent-gait-ground"
+    two = parse_controller(f"agent:{part}")
+    assert two.label == f"agent-gait-ground-{two.content_hash[:6]}"
 
 
 def test_two_different_files_of_one_label_are_refused_before_anything_is_written(tmp_path, tiny, capsys):

@@ -25,7 +25,9 @@ expert's is made of its options; a shipped model's is its name (``kernel-base``,
 ``kernel-mine``; a file named ``kernel.npz``, what ``krl kernel train`` writes, takes its folder's name),
 and where that name is a shipped model's, the first :data:`LABEL_HASH_DIGITS` hex digits of the file's
 SHA-256 follow (``kernel:X/kernel-base.npz`` is ``kernel-base-3fa2c1``), so a user's file never takes a
-shipped model's results or its row in the report.
+shipped model's results or its row in the report; a byte-identical copy of the shipped model it is named
+after is that model, label included (``agent:runs/agent-robust``, the run folders agent-robust's shipped
+files were copied from).
 
 A controller is known by its kind, options and files' content (:attr:`ControllerSpec.identity`), not by
 its files' paths: one file given several ways in one call (``agent``, ``agent:rp``,
@@ -322,7 +324,13 @@ def _parse_kernel(text: str, rest: str) -> ControllerSpec:
         return ControllerSpec("kernel", f"kernel-{model}", (), (artifact,))
     # `krl kernel train` writes OUT/kernel.npz: its folder names the run
     name = path.stem if path.stem != "kernel" else path.resolve().parent.name
-    label = _user_label("kernel", name.removeprefix("kernel-"), SHIPPED_MODELS, artifact.sha256)
+    label = _user_label(
+        "kernel",
+        name.removeprefix("kernel-"),
+        SHIPPED_MODELS,
+        artifact.sha256,
+        lambda shipped: Artifact.of(resolve_model(shipped)).sha256,
+    )
     return ControllerSpec("kernel", label, (), (artifact,))
 
 
@@ -358,7 +366,13 @@ def _parse_agent(text: str, rest: str) -> ControllerSpec:
     spec = ControllerSpec("agent", f"agent-{name}", (), artifacts)
     if (rest.strip() or "rp").partition("@")[0] in SHIPPED_POLICIES:
         return spec
-    return replace(spec, label=_user_label("agent", name, SHIPPED_POLICIES, spec.content_hash or ""))
+
+    def shipped_hash(shipped: str) -> str:
+        return _files_hash([Artifact.of(path, seed) for seed, path in policy_artifacts(shipped)[1]])
+
+    return replace(
+        spec, label=_user_label("agent", name, SHIPPED_POLICIES, spec.content_hash or "", shipped_hash)
+    )
 
 
 def _build_agent_batch(spec: ControllerSpec, seed: int | None, num_robots: int):
@@ -399,10 +413,15 @@ def _build_gait(spec: ControllerSpec, seed: int | None):
     return ScriptedGait(GaitRule(**dict(spec.options)))
 
 
-def _user_label(kind: str, name: str, shipped: tuple[str, ...], sha256: str) -> str:
-    """The label of a user's file named ``name`` (module docstring): ``KIND-NAME``, or ``KIND-NAME-HASH``
-    where NAME is one of the ``shipped`` models' names."""
-    return f"{kind}-{name}" + (f"-{sha256[:LABEL_HASH_DIGITS]}" if name in shipped else "")
+def _user_label(
+    kind: str, name: str, shipped: tuple[str, ...], sha256: str, shipped_sha256: Callable[[str], str]
+) -> str:
+    """The label of a user's file (or seed group) named ``name`` whose content hashes to ``sha256`` (module
+    docstring): ``KIND-NAME``, or ``KIND-NAME-HASH`` where NAME is one of the ``shipped`` models' names and
+    the content is not that model's (``shipped_sha256(NAME)``)."""
+    if name not in shipped or shipped_sha256(name) == sha256:
+        return f"{kind}-{name}"
+    return f"{kind}-{name}-{sha256[:LABEL_HASH_DIGITS]}"
 
 
 def distinct_controllers(specs: Sequence[ControllerSpec]) -> list[ControllerSpec]:
