@@ -12,6 +12,8 @@ import statistics
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from krl.util.rounding import readable
 
 
@@ -99,6 +101,40 @@ def difference_interval(
     return max(-1.0, low), min(1.0, high)
 
 
+BOOTSTRAP_RESAMPLES = 2000
+"""Resamples of :func:`cluster_difference_interval`'s bootstrap."""
+
+
+def cluster_difference_interval(
+    clusters_a: Sequence[tuple[int, int]], clusters_b: Sequence[tuple[int, int]]
+) -> tuple[float, float]:
+    """95 % percentile bootstrap interval of the difference of two success rates, p_a - p_b, whose runs come
+    in clusters: ``clusters_a`` and ``clusters_b`` hold one (successes, runs) pair per cluster, runs >= 1.
+
+    Made for the push sweep, whose attempt ``a`` draws the same push (time, point, direction) at every force
+    and for every seed: a cluster is one distinct push with all its runs, which share the push and so are not
+    independent. The bootstrap resamples the clusters of a with replacement (as many as it has) and,
+    independently, those of b; a resample's rate is its clusters' successes summed over their runs summed.
+    The interval (low, high) is the 2.5 and 97.5 percentiles of p_a - p_b over :data:`BOOTSTRAP_RESAMPLES`
+    resamples, a difference of rates within [-1, 1]. So it reflects how many distinct pushes there are,
+    where :func:`difference_interval` counts every run. The generator is seeded (``default_rng(0)``): the
+    same clusters give the same interval. A side with fewer than 2 clusters has no spread to resample, which
+    says nothing of the difference: the interval is then the whole range, (-1.0, 1.0).
+    """
+    if len(clusters_a) < 2 or len(clusters_b) < 2:
+        return -1.0, 1.0
+    rng = np.random.default_rng(0)
+    rates = []
+    for clusters in (clusters_a, clusters_b):
+        successes, runs = np.asarray(clusters, dtype=np.int64).T
+        if np.any(runs < 1) or np.any(successes < 0) or np.any(successes > runs):
+            raise ValueError(f"need 0 <= successes <= runs >= 1 in every cluster, got {clusters}")
+        drawn = rng.integers(len(runs), size=(BOOTSTRAP_RESAMPLES, len(runs)))  # (resamples, clusters)
+        rates.append(successes[drawn].sum(axis=1) / runs[drawn].sum(axis=1))
+    low, high = np.percentile(rates[0] - rates[1], [2.5, 97.5])
+    return float(low), float(high)
+
+
 PUSH_DIRECTIONS: tuple[str, ...] = ("forward", "left", "backward", "right")
 """Quarters of the push's horizontal direction, relative to the base's heading when the push starts
 (:func:`push_direction`): each spans 90° centred on its name (``forward``: the force's azimuth within ±45°
@@ -159,16 +195,26 @@ def push_draws(records: Sequence[dict[str, Any]]) -> str:
 def summarise_push_left_right(records: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
     """Left push success minus right (:func:`push_direction`'s quarters) over ``records``: each side's
     attempts and success rate, the difference and its 95 % interval (:func:`difference_interval`), and how the
-    directions were drawn (:func:`push_draws`); None where a side has no attempt."""
+    directions were drawn (:func:`push_draws`); then each side's distinct pushes (``left_pushes``,
+    ``right_pushes``: its attempt indices, each met at every force and by every seed) and the difference's
+    95 % interval that resamples them (``difference_low_pushes``, ``difference_high_pushes``:
+    :func:`cluster_difference_interval`). None where a side has no attempt."""
     sides: dict[str, list[bool]] = {"left": [], "right": []}
+    pushes: dict[str, dict[int, list[int]]] = {"left": {}, "right": {}}  # {attempt: [successes, runs]}
     for record in records:
         direction = push_direction(record)
         if direction in sides:
-            sides[direction].append(bool(record["metrics"]["success"]))
+            success = bool(record["metrics"]["success"])
+            sides[direction].append(success)
+            counts = pushes[direction].setdefault(record["attempt"], [0, 0])
+            counts[0] += success
+            counts[1] += 1
     if not (sides["left"] and sides["right"]):
         return None
     (left, n_left), (right, n_right) = ((sum(side), len(side)) for side in sides.values())
     low, high = difference_interval(left, n_left, right, n_right)
+    clusters = {side: [(s, n) for s, n in found.values()] for side, found in pushes.items()}
+    low_pushes, high_pushes = cluster_difference_interval(clusters["left"], clusters["right"])
     return {
         "directions": push_draws(records),
         "left_attempts": n_left,
@@ -180,6 +226,10 @@ def summarise_push_left_right(records: Sequence[dict[str, Any]]) -> dict[str, An
         "difference": left / n_left - right / n_right,
         "difference_low": low,
         "difference_high": high,
+        "left_pushes": len(clusters["left"]),
+        "right_pushes": len(clusters["right"]),
+        "difference_low_pushes": low_pushes,
+        "difference_high_pushes": high_pushes,
     }
 
 

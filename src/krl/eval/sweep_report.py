@@ -203,8 +203,9 @@ def push_direction_markdown(rows: list[dict[str, Any]]) -> str:
 
 def push_left_right_markdown(rows: list[dict[str, Any]]) -> str:
     """A row per controller (named with how its directions were drawn), a column per force band of
-    :data:`PUSH_FORCE_BANDS` that has rows: left success minus right (successes/attempts each side), and the
-    difference's 95 % interval."""
+    :data:`PUSH_FORCE_BANDS` that has rows: left success minus right (successes/attempts each side), the
+    difference's 95 % interval over the attempts, and the distinct pushes left/right with its 95 % interval
+    over them."""
     bands = [
         _band_name(band) for band in PUSH_FORCE_BANDS if any(r["forces"] == _band_name(band) for r in rows)
     ]
@@ -217,7 +218,11 @@ def push_left_right_markdown(rows: list[dict[str, Any]]) -> str:
     def cell(r: dict[str, Any]) -> str:
         sides = f"{r['left_successes']}/{r['left_attempts']} - {r['right_successes']}/{r['right_attempts']}"
         interval = f"{r['difference_low']:+.2f} to {r['difference_high']:+.2f}"
-        return f"{r['difference']:+.2f} ({sides}), {interval}"
+        pushes = (
+            f"pushes {r['left_pushes']}/{r['right_pushes']}: "
+            f"{r['difference_low_pushes']:+.2f} to {r['difference_high_pushes']:+.2f}"
+        )
+        return f"{r['difference']:+.2f} ({sides}), {interval}; {pushes}"
 
     lines = [
         "### Left minus right",
@@ -226,7 +231,9 @@ def push_left_right_markdown(rows: list[dict[str, Any]]) -> str:
         "(successes/attempts left - right), and the difference's 95 % interval: Newcombe's hybrid score "
         "interval, from the two sides' Wilson intervals. It takes every attempt as independent, though "
         "every force and every seed of a group meets the same pushes (attempt a's time, point and "
-        "direction), so it is narrower than the pushes' own spread warrants. Beside each controller, how "
+        "direction), so it is narrower than the pushes' own spread warrants. After `pushes`, the number of "
+        "distinct pushes left/right and a 95 % bootstrap interval that resamples these pushes, each with all "
+        "its runs, rather than the attempts: it is the one to read. Beside each controller, how "
         "the directions were drawn: "
         "`uniform` (each side's attempts are random in number) or `balanced` (`krl evaluate "
         "--push-directions balanced`: equal attempts in each quarter, by design).",
