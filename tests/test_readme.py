@@ -127,7 +127,7 @@ SMOKE: dict[str, tuple[str, str | None]] = {
     "krl agent config runs/agent-rp/config.json loss.json --out my.json": ("", None),
     "krl convert-results runs/eval": ("", None),
     "krl compare-results runs/eval runs/eval": ("", None),
-    "krl demo --controller agent:gait-ground": ("--course mine.toml --workers 1 --no-video --quiet", None),
+    "krl demo --controller agent:robust": ("--course mine.toml --workers 1 --no-video --quiet", None),
     "krl evaluate --controller agent --controller expert --out evaluations/mine": (
         "--course mine.toml --seeds 150 --workers 1 --quiet",
         None,
