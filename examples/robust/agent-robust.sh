@@ -10,7 +10,9 @@
 #      sweep, beside agent-gait-ground, agent-rp and the expert, then the report;
 #   5. sample efficiency: each arm's training success curve against its reference's final level;
 #   6. rp-sym (agent-rp's recipe with S, 2 seeds), which nothing above reads, then its evaluation (the runs
-#      evaluated already are not run again), the report again and its curve.
+#      evaluated already are not run again), the report again and its curve;
+#   7. where agent-robust was trained, left and right measured again: the balanced sweep at 350-600 N with
+#      400 attempts per force (100 distinct pushes per quarter), beside agent-gait-ground and the expert.
 # Every step resumes where it stopped and a finished one is not redone: after an interruption run this
 # again. One SIGTERM (or Ctrl-C) to this script passes on to the running commands, which checkpoint.
 #
@@ -135,3 +137,9 @@ together "$(train rp-sym 150 "$R/configs/rp-sym.json")" "$(train rp-sym 215 "$R/
 evaluate "$controllers --controller 'agent:$R/rp-sym-seed*'"
 together "krl agent curves --group agent-rp=$ROOT/training/agent-rp-seed345,$ROOT/training/agent-rp-seed556 \
 $(group rp-sym) --reach agent-rp --out $REPORT/curves-rp"
+# 7. left and right at the target's forces, with 100 distinct pushes per side (docs/agent-robust.md)
+if [ "$stands" = "True" ]; then
+  together "krl evaluate --controller agent:$ROBUST --controller agent:gait-ground --controller expert \
+--push-sweep --push-directions balanced --magnitudes 350:600:50 --attempts 400 --out $EVAL-left-right --quiet"
+  together "krl report --results $EVAL-left-right --out $REPORT-left-right"
+fi

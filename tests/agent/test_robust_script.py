@@ -106,3 +106,17 @@ def test_the_pipeline_runs_the_pre_registered_steps_in_order(tmp_path, stands):
     assert "agent:runs/robust/rp-sym-seed*" in lines[evaluations[1]]
     assert "--out report/curves" in lines[curves]
     assert "pyramids-pushes-seed215 " in lines[curves] and "agent-rp-seed556 " in lines[curves_rp]
+    # 7. where agent-robust was trained, left and right again with 100 distinct pushes per quarter, last
+    left_right = [i for i, line in enumerate(lines) if "--out evals-left-right " in line]
+    assert len(left_right) == (1 if stands == "true" else 0)
+    if left_right:
+        line = lines[left_right[0]]
+        assert (
+            "--controller agent:runs/agent-robust --controller agent:gait-ground --controller expert " in line
+        )
+        assert "--push-directions balanced --magnitudes 350:600:50 --attempts 400 " in line
+        assert (
+            curves_rp
+            < left_right[0]
+            < _index(lines, "report --results evals-left-right --out report-left-right")
+        )
