@@ -68,13 +68,19 @@ class ResidualEnvBatch:
         config: the agent's configuration.
         num_envs: N.
         kernel_path: the kernel file (default: the one ``config.residual.kernel`` names).
+        rowwise: run the kernel on each environment's row alone, so an environment's transitions do not
+            depend on how many are batched with it (:class:`krl.agent.residual.ResidualController`; held-out
+            episodes); training batches them.
     """
 
-    def __init__(self, config: AgentConfig, num_envs: int, kernel_path: str | None = None) -> None:
+    def __init__(
+        self, config: AgentConfig, num_envs: int, kernel_path: str | None = None, rowwise: bool = False
+    ) -> None:
         self.config = config
         self.num_envs = num_envs
         self.kernel_path = str(resolve_model(config.residual.kernel) if kernel_path is None else kernel_path)
-        self.controller = ResidualController(load_kernel(self.kernel_path), config.residual, num_envs)
+        kernel = load_kernel(self.kernel_path)
+        self.controller = ResidualController(kernel, config.residual, num_envs, rowwise=rowwise)
         self.features = config.observation.features
         self.observation_size = observation_size(self.features)
         self.reward = config.env.reward
@@ -369,12 +375,18 @@ class ResidualVecEnv(BatchVecEnv):
         num_envs: N.
         seed: seed of environment 0.
         kernel_path: the kernel file (default: the config's).
+        rowwise: the kernel run row by row (:class:`ResidualEnvBatch`).
     """
 
     def __init__(
-        self, config: AgentConfig, num_envs: int, seed: int = 0, kernel_path: str | None = None
+        self,
+        config: AgentConfig,
+        num_envs: int,
+        seed: int = 0,
+        kernel_path: str | None = None,
+        rowwise: bool = False,
     ) -> None:
-        self.batch = ResidualEnvBatch(config, num_envs, kernel_path)
+        self.batch = ResidualEnvBatch(config, num_envs, kernel_path, rowwise)
         action_space = gym.spaces.Box(-1.0, 1.0, shape=(config.residual.action_size,), dtype=np.float32)
         observation_space = gym.spaces.Box(
             -np.inf, np.inf, shape=(self.batch.observation_size,), dtype=np.float32

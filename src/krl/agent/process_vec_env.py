@@ -60,6 +60,7 @@ def _worker(
     seed: int,
     kernel_path: str | None,
     core: int | None,
+    rowwise: bool,
 ):
     from krl.util.parallel import die_with_parent
 
@@ -70,7 +71,7 @@ def _worker(
     limits = threadpool_limits(1)  # held for the worker's life
     from krl.agent.env import ResidualVecEnv
 
-    env = ResidualVecEnv(AgentConfig.from_json(config_json), num_envs, seed, kernel_path)
+    env = ResidualVecEnv(AgentConfig.from_json(config_json), num_envs, seed, kernel_path, rowwise)
     try:
         while True:
             command, payload = connection.recv()
@@ -107,10 +108,18 @@ class ProcessVecEnv(BatchVecEnv):
         num_envs: environments per worker.
         seed: seed of environment 0.
         kernel_path: the kernel file (default: the config's).
+        rowwise: each environment's kernel run on its row alone (:class:`krl.agent.env.ResidualEnvBatch`),
+            so its transitions do not depend on ``workers`` or ``num_envs``.
     """
 
     def __init__(
-        self, config: AgentConfig, workers: int, num_envs: int, seed: int = 0, kernel_path: str | None = None
+        self,
+        config: AgentConfig,
+        workers: int,
+        num_envs: int,
+        seed: int = 0,
+        kernel_path: str | None = None,
+        rowwise: bool = False,
     ) -> None:
         from krl.agent.env import ResidualVecEnv
 
@@ -133,6 +142,7 @@ class ProcessVecEnv(BatchVecEnv):
                     seed + worker * num_envs,
                     kernel_path,
                     None if cores is None else cores[worker],
+                    rowwise,
                 ),
                 daemon=True,
             )

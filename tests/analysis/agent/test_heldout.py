@@ -410,17 +410,17 @@ def test_many_episodes_walk_in_batches_of_bounded_size_with_the_same_episodes(
     path = make_policy(config, scale=0.5, seed=3).save(tmp_path / "gait.npz")
     built = []
 
-    def recording(config, workers, num_envs, seed, kernel):
-        built.append((workers * num_envs, seed))
-        return ProcessVecEnv(config, workers, num_envs, seed, kernel)
+    def recording(config, workers, num_envs, seed, kernel, rowwise):
+        built.append((workers * num_envs, seed, rowwise))
+        return ProcessVecEnv(config, workers, num_envs, seed, kernel, rowwise)
 
     monkeypatch.setattr(heldout, "ProcessVecEnv", recording)
     monkeypatch.setattr(heldout, "HELDOUT_BATCH", 2)
     batched, batched_usage = heldout.heldout_episodes(path, 5, 1)
-    assert built == [(2, HELDOUT_SEED), (2, HELDOUT_SEED + 2), (1, HELDOUT_SEED + 4)]
+    assert built == [(2, HELDOUT_SEED, True), (2, HELDOUT_SEED + 2, True), (1, HELDOUT_SEED + 4, True)]
     monkeypatch.setattr(heldout, "HELDOUT_BATCH", 8)
     whole, whole_usage = heldout.heldout_episodes(path, 5, 1)
-    assert built[3:] == [(5, HELDOUT_SEED)]
+    assert built[3:] == [(5, HELDOUT_SEED, True)]
     assert [e["terrain"] for e in batched] == [e["terrain"] for e in whole]
     for mine, one_batch in zip(batched, whole, strict=True):
         assert (mine["targets_reached"], mine["fell"]) == (one_batch["targets_reached"], one_batch["fell"])

@@ -101,12 +101,15 @@ class _BatchWalk:
         on ``workers`` processes (at most one per episode)."""
         workers = max(1, min(workers, episodes))
         per_worker = math.ceil(episodes / workers)
-        venv = ProcessVecEnv(self.config, workers, per_worker, HELDOUT_SEED + first, self.kernel)
+        # the kernel and the policy row by row: an episode's outcome does not depend on the batch it is in
+        venv = ProcessVecEnv(
+            self.config, workers, per_worker, HELDOUT_SEED + first, self.kernel, rowwise=True
+        )
         ended: list[dict[str, Any] | None] = [None] * episodes
         try:
             observations = venv.reset()
             while any(episode is None for episode in ended):
-                actions = self.policy.act(observations)
+                actions = self.policy.act(observations, rowwise=True)
                 if self.columns:
                     running = [index for index in range(episodes) if ended[index] is None]
                     self.asked.append(actions[running][:, self.columns])
