@@ -199,21 +199,20 @@ def summarise_push_left_right(records: Sequence[dict[str, Any]]) -> dict[str, An
     ``right_pushes``: its attempt indices, each met at every force and by every seed) and the difference's
     95 % interval that resamples them (``difference_low_pushes``, ``difference_high_pushes``:
     :func:`cluster_difference_interval`). None where a side has no attempt."""
-    sides: dict[str, list[bool]] = {"left": [], "right": []}
     pushes: dict[str, dict[int, list[int]]] = {"left": {}, "right": {}}  # {attempt: [successes, runs]}
     for record in records:
         direction = push_direction(record)
-        if direction in sides:
-            success = bool(record["metrics"]["success"])
-            sides[direction].append(success)
+        if direction in pushes:
             counts = pushes[direction].setdefault(record["attempt"], [0, 0])
-            counts[0] += success
+            counts[0] += bool(record["metrics"]["success"])
             counts[1] += 1
-    if not (sides["left"] and sides["right"]):
+    if not (pushes["left"] and pushes["right"]):
         return None
-    (left, n_left), (right, n_right) = ((sum(side), len(side)) for side in sides.values())
-    low, high = difference_interval(left, n_left, right, n_right)
     clusters = {side: [(s, n) for s, n in found.values()] for side, found in pushes.items()}
+    (left, n_left), (right, n_right) = (
+        (sum(s for s, _ in side), sum(n for _, n in side)) for side in clusters.values()
+    )
+    low, high = difference_interval(left, n_left, right, n_right)
     low_pushes, high_pushes = cluster_difference_interval(clusters["left"], clusters["right"])
     return {
         "directions": push_draws(records),
