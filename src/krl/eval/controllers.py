@@ -47,6 +47,8 @@ from typing import Any
 
 import numpy as np
 
+from krl.util.hashing import file_sha256
+
 LABEL_HASH_DIGITS: int = 6
 """Hex digits of a user file's SHA-256 in its label when its name is a shipped model's (16.7 million
 values; two files that share them are refused by :func:`distinct_controllers`, not mixed)."""
@@ -69,7 +71,7 @@ class Artifact:
 
     @classmethod
     def of(cls, path: Path, seed: int | None = None) -> Artifact:
-        return cls(str(path.resolve()), hashlib.sha256(path.read_bytes()).hexdigest(), seed)
+        return cls(str(path.resolve()), file_sha256(path), seed)
 
 
 def _files_hash(artifacts: Sequence[Artifact]) -> str:
@@ -329,7 +331,7 @@ def _parse_kernel(text: str, rest: str) -> ControllerSpec:
         name.removeprefix("kernel-"),
         SHIPPED_MODELS,
         artifact.sha256,
-        lambda shipped: Artifact.of(resolve_model(shipped)).sha256,
+        lambda shipped: file_sha256(resolve_model(shipped)),
     )
     return ControllerSpec("kernel", label, (), (artifact,))
 
