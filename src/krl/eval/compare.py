@@ -3,9 +3,10 @@
 A change to the episode engine must keep every record (issue 46): every metric equal, or where the order
 of floating-point operations had to change, the differences stated and shown to move no outcome. This
 compares two results folders (either layout, :mod:`krl.eval.records`) controller by controller and run by
-run: the runs only one folder holds, the runs whose records are equal (but for :data:`IGNORED`, which
-differ between any two runs of one task), and for the others the largest absolute difference of each
-numeric field, the other fields that changed and the runs whose outcome (:data:`OUTCOMES`) moved. A record
+run: the runs only one folder holds, the runs whose records are equal (but for
+:data:`~krl.eval.records.VOLATILE`, which differ between any two runs of one task), and for the others the
+largest absolute difference of each numeric field, the other fields that changed and the runs whose outcome
+(:data:`OUTCOMES`) moved. A record
 made before ``metrics.ended`` existed is compared with the ending its other outcome fields give
 (:func:`krl.task.episode.ending`), so its age alone moves no outcome.
 
@@ -22,12 +23,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from krl.eval.records import MACHINE, WALL_TIME, controller_labels, read_runs
+from krl.eval.records import MACHINE, VOLATILE, controller_labels, read_runs, result_of
 from krl.task.episode import ending
-
-IGNORED: tuple[str, ...] = (f"metrics.{WALL_TIME}", MACHINE)
-"""Fields that differ between two runs of the same task (wall-clock time, the machine that computed it),
-each with every field under it (``machine.cpu``)."""
 
 OUTCOMES: tuple[str, ...] = (
     "metrics.success",
@@ -67,21 +64,18 @@ def _difference(a: Any, b: Any) -> float | None:
     return abs(a - b)
 
 
-def compare_records(a: dict[str, Any], b: dict[str, Any], ignored: Sequence[str] = IGNORED) -> dict[str, Any]:
+def compare_records(
+    a: dict[str, Any], b: dict[str, Any], ignored: Sequence[str] = VOLATILE
+) -> dict[str, Any]:
     """The fields in which two records of one run differ: ``{field: [a's, b's]}`` (missing: None)."""
-    flat_a, flat_b = (flatten(_with_ending(record)) for record in (a, b))
-    keys = [key for key in dict.fromkeys([*flat_a, *flat_b]) if not _under(key, ignored)]
+    flat_a, flat_b = (flatten(_with_ending(result_of(record, ignored))) for record in (a, b))
+    keys = list(dict.fromkeys([*flat_a, *flat_b]))
     differing = {}
     for key in keys:
         x, y = flat_a.get(key), flat_b.get(key)
         if x != y and _difference(x, y) != 0.0:
             differing[key] = [x, y]
     return differing
-
-
-def _under(key: str, fields: Sequence[str]) -> bool:
-    """Whether the dotted ``key`` is one of ``fields`` or lies under one."""
-    return any(key == field or key.startswith(f"{field}.") for field in fields)
 
 
 def _with_ending(record: dict[str, Any]) -> dict[str, Any]:
@@ -102,7 +96,7 @@ def _same_machine(machines: list[list[Any]]) -> bool | None:
 
 
 def compare_results(
-    first: Path, second: Path, labels: Sequence[str] | None = None, ignored: Sequence[str] = IGNORED
+    first: Path, second: Path, labels: Sequence[str] | None = None, ignored: Sequence[str] = VOLATILE
 ) -> dict[str, Any]:
     """Compare two results folders (module docstring); ``labels``: only these controllers (default: every
     one either folder holds). :class:`krl.eval.records.EvaluationError` for a missing folder or controller."""

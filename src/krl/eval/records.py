@@ -188,10 +188,20 @@ MACHINE = "machine"
 """The field of a record that names the machine that computed it: not part of its result."""
 
 
-def result_of(record: dict[str, Any]) -> dict[str, Any]:
-    """``record`` without what differs between two runs of one task: its wall time and its machine."""
-    metrics = {k: v for k, v in record["metrics"].items() if k != WALL_TIME}
-    return {**{k: v for k, v in record.items() if k != MACHINE}, "metrics": metrics}
+VOLATILE: tuple[str, ...] = (f"metrics.{WALL_TIME}", MACHINE)
+"""The dotted fields of a record that differ between two runs of one task (its wall time, its machine),
+each with every field under it (``machine.cpu``)."""
+
+
+def result_of(record: dict[str, Any], volatile: Sequence[str] = VOLATILE) -> dict[str, Any]:
+    """``record`` without its ``volatile`` fields: what two runs of one task must agree on."""
+
+    def kept(value: Any, path: str) -> Any:
+        if not isinstance(value, dict):
+            return value
+        return {k: kept(v, f"{path}{k}.") for k, v in value.items() if f"{path}{k}" not in volatile}
+
+    return kept(record, "")
 
 
 def read_runs(folder: Path, label: str | None = None) -> dict[str, StoredRun]:
