@@ -113,6 +113,14 @@ def test_agent_gait_is_chosen_from_the_ablation_on_the_pipelines_kernel_and_trai
     assert more == ["agent-gait-ground-seed215"]
     assert f"--config {tmp_path}/heldout-ground/chosen-config.json" in steps[more[0]].command
     assert f"--controller agent:{ground}/pyramids-pushes-seed*" in scoring
+    left_right = steps["robust-evaluate-left-right"].command
+    assert (
+        f"--controller agent:{tmp_path}/agent-robust --controller agent:{tmp_path}/agent-gait-ground "
+        "--controller expert --push-sweep --push-directions balanced --magnitudes 350:600:50 --attempts 400"
+    ) in left_right
+    assert steps["robust-report-left-right"].command.endswith(
+        f"--results {tmp_path}/eval-robust-left-right --out {tmp_path}/docs/results/robust-left-right"
+    )
     quick = {step.name: step for step in plan(tmp_path, tmp_path / "docs", quick=True)}
     assert (
         "--seeds 150 --jobs 2" in quick["gait-ablation"].command
@@ -164,6 +172,8 @@ def test_agent_robust_is_chosen_among_its_arms_and_trained_for_the_other_seeds(t
         "robust-evaluate-balanced",
         "robust-report",
         "robust-curves",
+        "robust-evaluate-left-right",
+        "robust-report-left-right",
     ]
     assert [names.index(name) for name in order] == sorted(names.index(name) for name in order)
     assert [name for name in names if name.startswith("agent-robust-seed")] == ["agent-robust-seed215"]
@@ -173,11 +183,21 @@ def test_agent_robust_is_chosen_among_its_arms_and_trained_for_the_other_seeds(t
         in steps["robust-evaluate-balanced"].command
     )
     assert "--push-directions balanced --attempts 48" in steps["robust-evaluate-balanced"].command
+    left_right = steps["robust-evaluate-left-right"].command
+    assert (
+        f"--controller agent:{tmp_path}/agent-robust --controller agent:{tmp_path}/agent-gait-ground "
+        "--controller expert --push-sweep --push-directions balanced --magnitudes 350:600:50 --attempts 400"
+    ) in left_right
+    assert steps["robust-report-left-right"].command.endswith(
+        f"--results {tmp_path}/eval-robust-left-right --out {tmp_path}/docs/results/robust-left-right"
+    )
     quick = {step.name: step for step in plan(tmp_path, tmp_path / "docs", quick=True)}
     assert "--steps 8000" in quick["robust-sym-curriculum-seed150"].command
     assert "--attempts 4 --magnitudes 350,600" in quick["robust-evaluate-balanced"].command  # 1 per quarter
     assert not [name for name in quick if name.startswith("agent-robust-seed")]
     assert "agent-robust" not in quick["robust-evaluate"].command  # no seed group from 8 000-step runs
+    quick_arm = f"--controller agent:{tmp_path}/quick/robust/sym-curriculum-seed*"
+    assert quick_arm in quick["robust-evaluate-left-right"].command
 
 
 def test_reproduce_seeds_option_reaches_the_plan(tmp_path, capsys):

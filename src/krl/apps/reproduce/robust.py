@@ -1,6 +1,6 @@
 """The pipeline's rows of agent-robust (issue 45, docs/agent-robust.md) as ``examples/robust/agent-robust.sh``
 makes it: the symmetry pilot, the candidate arms, the rule on held-out episodes, the chosen recipe's other
-seeds, the evaluation, the reports and the sample-efficiency curves.
+seeds, the evaluation, the reports, the sample-efficiency curves and the left-right sweep.
 
 The arms are agent-gait-ground's recipe (the ground study's ``pyramids-pushes`` variant as run from the
 first seed, on the pipeline's kernel-ext) with one change each, laid over it by ``krl agent config``
@@ -15,7 +15,16 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from krl.apps.reproduce.table import ByMode, Fragment, Row, chosen_seed_rows
+from krl.apps.reproduce.table import (
+    AGENT_PUSHES_PER_MINUTE,
+    AGENT_SEED_EVALUATION_MINUTES,
+    EXPERT_PUSHES_PER_MINUTE,
+    ByMode,
+    Fragment,
+    Row,
+    chosen_seed_rows,
+)
+from krl.util.thesis import THESIS_PUSH_MAGNITUDES
 
 LAYERS: dict[str, dict[str, Any]] = {
     "augment": {"ppo": {"symmetry": "augment"}},
@@ -32,6 +41,12 @@ PILOT_STEPS: ByMode[int] = ByMode(4_000_000, 4000)
 """Env steps of each pilot run."""
 QUICK_STEPS: int = 8000
 """Env steps of each arm's run with ``--quick``: two of the quick agent's rollouts."""
+BALANCED_ATTEMPTS: int = 48
+"""Attempts per force of the balanced push sweep: 12 per quarter."""
+LEFT_RIGHT_ATTEMPTS: int = 400
+"""Attempts per force of the left-right sweep: 100 per quarter."""
+LEFT_RIGHT_FORCES: int = 6
+"""Forces of the left-right sweep: 350-600 N in steps of 50."""
 
 _R = "{runs}/robust"
 """The study's folder: run folders ``ARM-seedS``, ``configs/``, the rules' records."""
@@ -126,8 +141,7 @@ def _scoring_rows(ablation: Sequence[int], more: Sequence[int]) -> tuple[Row, ..
         ByMode("--controller agent:{runs}/agent-gait-ground", f"--controller agent:{_GROUND}*"),
         "--controller agent:{runs}/agent-rp --controller expert",
     )
-    # agent-gait's evaluation's measured rates (pipeline.py): about 7 min per agent seed, 35 for the
-    # expert; its balanced push sweep alone about 6
+    # the expert's full evaluation as agent-gait's (pipeline.py): 35 min
     agents = 2 * (len(ablation) + len(more)) + len(ARMS) * len(ablation) + len(more)
     groups = " ".join(
         f"--group {arm}={','.join(f'{_R}/{arm}-seed{seed}' for seed in ablation)}" for arm in ARMS
@@ -137,7 +151,7 @@ def _scoring_rows(ablation: Sequence[int], more: Sequence[int]) -> tuple[Row, ..
         Row(
             "robust-evaluate",
             "agent-robust's tables' runs",
-            ByMode(7 * agents + 35, 4),
+            ByMode(AGENT_SEED_EVALUATION_MINUTES * agents + 35, 4),
             (
                 "evaluate",
                 *controllers,
@@ -152,12 +166,12 @@ def _scoring_rows(ablation: Sequence[int], more: Sequence[int]) -> tuple[Row, ..
         Row(
             "robust-evaluate-balanced",
             "the balanced push sweep's runs",
-            ByMode(6 * agents + 30, 2),
+            ByMode(_push_minutes(agents, BALANCED_ATTEMPTS * len(THESIS_PUSH_MAGNITUDES)), 2),
             (
                 "evaluate",
                 *controllers,
                 "--push-sweep --push-directions balanced",
-                ByMode("--attempts 48", "--attempts 4 --magnitudes 350,600"),
+                ByMode(f"--attempts {BALANCED_ATTEMPTS}", "--attempts 4 --magnitudes 350,600"),
                 "--workers 2 --out {runs}/eval-robust-balanced --quiet",
             ),
         ),
@@ -181,6 +195,46 @@ def _scoring_rows(ablation: Sequence[int], more: Sequence[int]) -> tuple[Row, ..
                 f"agent curves --group baseline={baseline} {groups}",
                 "--reach baseline --out {docs}/results/robust/curves",
             ),
+        ),
+        *_left_right_rows(len(ablation) + len(more)),
+    )
+
+
+def _push_minutes(agent_seeds: int, attempts: int) -> float:
+    """Wall time of a push sweep of ``attempts`` per controller seed (over all its forces) for
+    ``agent_seeds`` agent seeds and the expert [min]."""
+    return round(agent_seeds * attempts / AGENT_PUSHES_PER_MINUTE + attempts / EXPERT_PUSHES_PER_MINUTE)
+
+
+def _left_right_rows(seeds: int) -> tuple[Row, ...]:
+    """agent-robust and agent-gait-ground (``seeds`` seeds each) and the expert on the balanced sweep at
+    350-600 N with 400 attempts per force (100 distinct pushes per side each, docs/agent-robust.md's step 7),
+    and its report. ``--quick`` scores the study's sym-curriculum and agent-gait-ground's recipe's runs, as
+    :func:`_scoring_rows`."""
+    return (
+        Row(
+            "robust-evaluate-left-right",
+            "left and right at the target's forces",
+            ByMode(_push_minutes(2 * seeds, LEFT_RIGHT_ATTEMPTS * LEFT_RIGHT_FORCES), 2),
+            (
+                "evaluate",
+                ByMode(
+                    "--controller agent:{runs}/agent-robust", f"--controller agent:{_R}/sym-curriculum-seed*"
+                ),
+                ByMode("--controller agent:{runs}/agent-gait-ground", f"--controller agent:{_GROUND}*"),
+                "--controller expert --push-sweep --push-directions balanced",
+                ByMode(
+                    f"--magnitudes 350:600:50 --attempts {LEFT_RIGHT_ATTEMPTS}",
+                    "--magnitudes 350,600 --attempts 4",
+                ),
+                "--workers 2 --out {runs}/eval-robust-left-right --quiet",
+            ),
+        ),
+        Row(
+            "robust-report-left-right",
+            "the left-right sweep's tables",
+            0.2,
+            ("report --results {runs}/eval-robust-left-right --out {docs}/results/robust-left-right",),
         ),
     )
 

@@ -31,6 +31,18 @@ class Step:
 
 T = TypeVar("T")
 
+AGENT_SEED_EVALUATION_MINUTES: float = 5.0
+"""Wall time of one agent seed's full evaluation on both cores of the development machine [min]: the
+thesis's and the harder courses, the default push sweep at 50 attempts per force and the friction sweep
+(rp-sym's two seeds took 9.3 min in ``examples/robust/agent-robust.sh`` on 2026-12-07)."""
+AGENT_PUSHES_PER_MINUTE: float = 450.0
+"""Push attempts one agent walks per minute on both cores of the development machine (agent-robust's four
+seeds in the left-right sweep of 2026-12-07: 8 960 attempts in 19.7 min; rp-sym's balanced sweep: 1 344 in
+2.8 min)."""
+EXPERT_PUSHES_PER_MINUTE: float = 64.0
+"""Push attempts the MPC expert walks per minute on both cores of the development machine (the left-right
+sweep of 2026-12-07: about 64 attempts in each minute of its first 5)."""
+
 
 @dataclass(frozen=True)
 class ByMode(Generic[T]):
