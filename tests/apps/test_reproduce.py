@@ -113,14 +113,6 @@ def test_agent_gait_is_chosen_from_the_ablation_on_the_pipelines_kernel_and_trai
     assert more == ["agent-gait-ground-seed215"]
     assert f"--config {tmp_path}/heldout-ground/chosen-config.json" in steps[more[0]].command
     assert f"--controller agent:{ground}/pyramids-pushes-seed*" in scoring
-    left_right = steps["robust-evaluate-left-right"].command
-    assert (
-        f"--controller agent:{tmp_path}/agent-robust --controller agent:{tmp_path}/agent-gait-ground "
-        "--controller expert --push-sweep --push-directions balanced --magnitudes 350:600:50 --attempts 400"
-    ) in left_right
-    assert steps["robust-report-left-right"].command.endswith(
-        f"--results {tmp_path}/eval-robust-left-right --out {tmp_path}/docs/results/robust-left-right"
-    )
     quick = {step.name: step for step in plan(tmp_path, tmp_path / "docs", quick=True)}
     assert (
         "--seeds 150 --jobs 2" in quick["gait-ablation"].command
