@@ -6,9 +6,8 @@ compares two results folders (either layout, :mod:`krl.eval.records`) controller
 run: the runs only one folder holds, the runs whose records are equal (but for
 :data:`~krl.eval.records.VOLATILE`, which differ between any two runs of one task), and for the others the
 largest absolute difference of each numeric field, the other fields that changed and the runs whose outcome
-(:data:`OUTCOMES`) moved. A record
-made before ``metrics.ended`` existed is compared with the ending its other outcome fields give
-(:func:`krl.task.episode.ending`), so its age alone moves no outcome.
+(:data:`OUTCOMES`) moved. A record made before ``metrics.ended`` existed is compared with the ending its
+other outcome fields give (:func:`krl.task.episode.ending`), so its age alone moves no outcome.
 
 A record's ``machine`` (:func:`krl.util.machine.machine`) is not compared; the comparison lists the machines
 each folder's records were made on instead, since two machines whose BLAS sums in another order need not

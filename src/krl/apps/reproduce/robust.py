@@ -45,8 +45,8 @@ BALANCED_ATTEMPTS: int = 48
 """Attempts per force of the balanced push sweep: 12 per quarter."""
 LEFT_RIGHT_ATTEMPTS: int = 400
 """Attempts per force of the left-right sweep: 100 per quarter."""
-LEFT_RIGHT_FORCES: int = 6
-"""Forces of the left-right sweep: 350-600 N in steps of 50."""
+LEFT_RIGHT_MAGNITUDES: tuple[int, int, int] = (350, 600, 50)
+"""Forces of the left-right sweep [N]: first, last, step."""
 
 _R = "{runs}/robust"
 """The study's folder: run folders ``ARM-seedS``, ``configs/``, the rules' records."""
@@ -211,11 +211,12 @@ def _left_right_rows(seeds: int) -> tuple[Row, ...]:
     350-600 N with 400 attempts per force (100 distinct pushes per side each, docs/agent-robust.md's step 7),
     and its report. ``--quick`` scores the study's sym-curriculum and agent-gait-ground's recipe's runs, as
     :func:`_scoring_rows`."""
+    first, last, step = LEFT_RIGHT_MAGNITUDES
     return (
         Row(
             "robust-evaluate-left-right",
             "left and right at the target's forces",
-            ByMode(_push_minutes(2 * seeds, LEFT_RIGHT_ATTEMPTS * LEFT_RIGHT_FORCES), 2),
+            ByMode(_push_minutes(2 * seeds, LEFT_RIGHT_ATTEMPTS * len(range(first, last + 1, step))), 2),
             (
                 "evaluate",
                 ByMode(
@@ -224,7 +225,7 @@ def _left_right_rows(seeds: int) -> tuple[Row, ...]:
                 ByMode("--controller agent:{runs}/agent-gait-ground", f"--controller agent:{_GROUND}*"),
                 "--controller expert --push-sweep --push-directions balanced",
                 ByMode(
-                    f"--magnitudes 350:600:50 --attempts {LEFT_RIGHT_ATTEMPTS}",
+                    f"--magnitudes {first}:{last}:{step} --attempts {LEFT_RIGHT_ATTEMPTS}",
                     "--magnitudes 350,600 --attempts 4",
                 ),
                 "--workers 2 --out {runs}/eval-robust-left-right --quiet",
