@@ -133,3 +133,38 @@ def test_the_log_records_the_rollouts_success_rate():
     log._on_step()
     log._on_rollout_end()
     assert recorded["episode/success_rate"] == 0.5 and recorded["episode/fall_rate"] == 0.25
+
+
+def test_reach_over_a_window_reads_each_curve_as_its_trailing_mean(tmp_path, capsys):
+    """Single rollouts swing: a run that touches the level once, then falls back, reaches it there; read
+    over a window of two grid points it reaches the level only where its two-point mean does, and the
+    reference's level is its own mean over its last window. Bad windows are refused in one line."""
+    steps = [0, 200_000, 400_000, 600_000, 800_000]
+    ref = fake_run(tmp_path / "ref", steps, [1] * 5, [0.0, 0.2, 0.4, 0.6, 0.6])
+    spiky = fake_run(tmp_path / "spiky", steps, [1] * 5, [0.0, 0.6, 0.0, 0.5, 0.7])
+    for run in (ref, spiky):
+        (run / "config.json").write_text(json.dumps({"env": {}}))
+    out = tmp_path / "figures"
+    argv = ["agent", "curves", "--group", f"ref={ref}", "--group", f"spiky={spiky}", "--reach", "ref"]
+    assert main([*argv, "--out", str(out), "--json"]) == 0
+    single = {row["label"]: row for row in json.loads(capsys.readouterr().out)["reach"]}
+    assert single["spiky"]["steps_to_level"] == 200_000.0 and single["spiky"]["window_steps"] is None
+    assert main([*argv, "--out", str(out), "--window", "4e5", "--json"]) == 0
+    windowed = {row["label"]: row for row in json.loads(capsys.readouterr().out)["reach"]}
+    assert windowed["ref"]["level"] == 0.6 and windowed["ref"]["steps_to_level"] == 800_000.0
+    assert windowed["spiky"]["steps_to_level"] == 800_000.0 and windowed["spiky"]["final_success"] == 0.6
+    assert windowed["spiky"]["window_steps"] == 400_000.0
+    assert (out / "reach.md").exists() and "mean over the last 0.4e6 env steps" in (
+        out / "reach-window-400000.md"
+    ).read_text()
+    for extra, message in (
+        (["--window", "3e5"], "--window 300000: not a positive multiple of the 200000-step grid"),
+        (["--window", "0"], "--window 0: not a positive multiple"),
+        (["--window", "nan"], "--window nan: not a positive multiple"),
+        (["--window", "2e6"], "--window 2000000: longer than --group ref's curve (5 grid points"),
+    ):
+        assert main([*argv, "--out", str(out), *extra]) == 2
+        error = capsys.readouterr().err
+        assert message in error and error.count("\n") == 1
+    assert main(["agent", "curves", "--group", f"ref={ref}", "--out", str(out), "--window", "4e5"]) == 2
+    assert "--window needs --reach" in capsys.readouterr().err

@@ -160,20 +160,51 @@ def steps_to_reach(curve: dict[str, np.ndarray], level: float) -> float | None:
     return float(curve["steps"][reached[0]]) if reached.size else None
 
 
-def reach_rows(groups: dict[str, list[Path]], reference: str) -> list[dict[str, Any]]:
+def trailing_mean(curve: dict[str, np.ndarray], window_steps: float, label: str) -> dict[str, np.ndarray]:
+    """``curve`` (:func:`group_curve`) with its mean averaged over the trailing ``window_steps`` env steps:
+    at each grid point the mean of the last k = ``window_steps / GRID_STEPS`` grid points up to it; the
+    points before the first full window are dropped (arrays of shape (G - k + 1,)). ``label`` names the
+    curve in errors.
+
+    Raises:
+        ValueError: ``window_steps`` is no positive multiple of :data:`GRID_STEPS`, or spans more grid
+            points than the curve has.
+    """
+    points = round(window_steps / GRID_STEPS) if np.isfinite(window_steps) else 0
+    if points < 1 or abs(points * GRID_STEPS - window_steps) > 1e-6 * GRID_STEPS:
+        raise ValueError(
+            f"--window {window_steps:.10g}: not a positive multiple of the {GRID_STEPS:.10g}-step grid"
+        )
+    if points > curve["mean"].size:
+        raise ValueError(
+            f"--window {window_steps:.10g}: longer than --group {label}'s curve "
+            f"({curve['mean'].size} grid points of {GRID_STEPS:.10g} env steps)"
+        )
+    mean = np.convolve(curve["mean"], np.full(points, 1.0 / points), mode="valid")
+    return {"steps": curve["steps"][points - 1 :], "mean": mean, "runs": curve["runs"]}
+
+
+def reach_rows(
+    groups: dict[str, list[Path]], reference: str, window_steps: float | None = None
+) -> list[dict[str, Any]]:
     """Sample efficiency (the issue-45 question, Fig. 4.23's curves read as numbers): for each group, the
     env steps at which its mean training success rate (:data:`REACH_COLUMN`, on :func:`group_curve`'s grid)
-    first reaches the ``reference`` group's final mean, the level the reference ends at.
+    first reaches the ``reference`` group's final mean, the level the reference ends at. With
+    ``window_steps``, every curve (the reference's too, so its level is its mean over its last
+    ``window_steps``) is first a :func:`trailing_mean`: single rollouts' rates swing by ±0.1, a window's
+    mean does not.
 
     Rows: ``label``, ``runs``, ``final_steps`` and ``final_success`` (the group's own last grid point),
-    ``level``, ``steps_to_level`` (None: never reached) and ``same_env``: whether the group's runs trained
+    ``level``, ``steps_to_level`` (None: never reached), ``window_steps`` (None: single rollouts) and
+    ``same_env``: whether the group's runs trained
     in the reference's environment (the ``env`` section of their ``config.json``; false where one is
     unreadable). A rate measures each
     group on its own training ground with the stochastic actions of training, so only a group with
     ``same_env`` compares with the level (a symmetric arm against its recipe without symmetry, say).
 
     Raises:
-        ValueError: ``reference`` is no group, or a group logs no success rate.
+        ValueError: ``reference`` is no group, a group logs no success rate, or the window is invalid
+            (:func:`trailing_mean`).
     """
     if reference not in groups:
         raise ValueError(f"--reach {reference!r} is no --group label (labels: {', '.join(groups)})")
@@ -181,6 +212,8 @@ def reach_rows(groups: dict[str, list[Path]], reference: str) -> list[dict[str, 
     for label, curve in curves.items():
         if not curve["runs"]:
             raise ValueError(f"--group {label}: no run logs {REACH_COLUMN} (trained before it was logged)")
+    if window_steps is not None:
+        curves = {label: trailing_mean(curve, window_steps, label) for label, curve in curves.items()}
     level = float(curves[reference]["mean"][-1])
     envs = {label: {_env_section(run) for run in runs} for label, runs in groups.items()}
     return [
@@ -191,6 +224,7 @@ def reach_rows(groups: dict[str, list[Path]], reference: str) -> list[dict[str, 
             "final_success": float(curve["mean"][-1]),
             "level": level,
             "steps_to_level": steps_to_reach(curve, level),
+            "window_steps": window_steps,
             "same_env": envs[label] == envs[reference] and len(envs[label]) == 1 and None not in envs[label],
         }
         for label, curve in curves.items()
@@ -207,12 +241,19 @@ def _env_section(run: Path) -> EnvConfig | None:
 
 
 def write_reach(rows: list[dict[str, Any]], reference: str, out: Path) -> list[Path]:
-    """Write :func:`reach_rows`'s table as ``reach.md`` and ``reach.json`` into ``out``; returns the paths."""
+    """Write :func:`reach_rows`'s table as ``reach.md`` and ``reach.json`` into ``out`` (read over a window:
+    ``reach-window-<steps>.md`` and ``.json``, so both readings of the same groups can share a folder);
+    returns the paths."""
 
     def millions(steps: float | None) -> str:
         return "not reached" if steps is None else f"{steps / 1e6:.1f}"
 
-    level = rows[0]["level"]
+    level, window = rows[0]["level"], rows[0]["window_steps"]
+    averaged = (
+        "single rollouts"
+        if window is None
+        else f"each point the mean over the last {window / 1e6:g}e6 env steps"
+    )
     lines = [
         f"# Env steps to {reference}'s final training success ({level:.2f})",
         "",
@@ -225,10 +266,11 @@ def write_reach(rows: list[dict[str, Any]], reference: str, out: Path) -> list[P
         ),
         "",
         f"The mean over each agent's runs of `{REACH_COLUMN}` in `progress.csv` (training episodes, "
-        f"stochastic actions), on a grid of {GRID_STEPS:.0e} env steps. Only an agent trained on "
+        f"stochastic actions), on a grid of {GRID_STEPS:.0e} env steps, {averaged}. Only an agent trained on "
         f"{reference}'s ground (its ground: same) compares with the level.",
     ]
-    markdown, record = out / "reach.md", out / "reach.json"
+    stem = "reach" if window is None else f"reach-window-{round(window)}"
+    markdown, record = out / f"{stem}.md", out / f"{stem}.json"
     write_atomic(markdown, "\n".join(lines) + "\n")
     write_atomic(record, json.dumps({"reference": reference, "rows": rows}, indent=1) + "\n")
     return [markdown, record]

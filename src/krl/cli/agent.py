@@ -143,7 +143,11 @@ def run_curves(args: argparse.Namespace) -> int:
     paths = []
     if args.run:
         paths += plot_training_curves([Path(run) for run in args.run], Path(args.out))
-    rows = reach_rows(groups, args.reach) if args.reach else None  # a bad label: before anything is drawn
+    if args.window is not None and not args.reach:
+        raise CliError("--window needs --reach: it averages the curves that --reach reads")
+    rows = (
+        reach_rows(groups, args.reach, args.window) if args.reach else None
+    )  # a bad label: before anything is drawn
     if groups:
         paths += plot_seed_groups(groups, Path(args.out))
     result: dict = {"figures": [str(p) for p in paths]}
@@ -346,6 +350,13 @@ def _add_curves(group) -> None:
         metavar="LABEL",
         help="with --group: the env steps at which each group's mean training success rate first reaches "
         "LABEL's final one (reach.md, reach.json): sample efficiency",
+    )
+    p.add_argument(
+        "--window",
+        type=float,
+        metavar="STEPS",
+        help="with --reach: read every curve as its mean over the trailing STEPS env steps (a multiple of "
+        "the curves' env-step grid, e.g. 2e6), the level too; default: single rollouts",
     )
     p.add_argument("--out", required=True, help="output folder")
     _add_output(p)
