@@ -7,7 +7,14 @@ from collections.abc import Sequence
 from typing import Any
 
 from krl.apps.reproduce.robust import robust_rows
-from krl.apps.reproduce.table import AGENT_SEED_EVALUATION_MINUTES, ByMode, Fragment, Row, chosen_seed_rows
+from krl.apps.reproduce.table import (
+    AGENT_SEED_EVALUATION_MINUTES,
+    EXPERT_EVALUATION_MINUTES,
+    ByMode,
+    Fragment,
+    Row,
+    chosen_seed_rows,
+)
 from krl.util.thesis import COMPARISON_EPOCHS, THESIS_SEEDS
 
 COURSES: tuple[str, ...] = ("tabletop", "seesaw", "stairs", "sinusoid", "flat", "slope", "heightfield")
@@ -397,13 +404,11 @@ def _gait_scoring_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
         Row(
             "evaluate-gait",
             "agent-gait's tables' runs",
-            # 35 min for the expert and the kernel, on both cores (the gait evaluation of 2026-12-05, one
-            # robot per process then); the chosen variants' seeds are the seed groups' files, whose runs
-            # krl evaluate makes once
+            # the chosen variants' seeds are the seed groups' files, whose runs krl evaluate makes once
             ByMode(
                 AGENT_SEED_EVALUATION_MINUTES
                 * (2 * len(more) + len(seeds) + (len(variants) + len(ground)) * len(ablation))
-                + 35,
+                + EXPERT_EVALUATION_MINUTES,
                 6,
             ),
             (

@@ -18,6 +18,7 @@ from typing import Any
 from krl.apps.reproduce.table import (
     AGENT_PUSHES_PER_MINUTE,
     AGENT_SEED_EVALUATION_MINUTES,
+    EXPERT_EVALUATION_MINUTES,
     EXPERT_PUSHES_PER_MINUTE,
     ByMode,
     Fragment,
@@ -141,7 +142,6 @@ def _scoring_rows(ablation: Sequence[int], more: Sequence[int]) -> tuple[Row, ..
         ByMode("--controller agent:{runs}/agent-gait-ground", f"--controller agent:{_GROUND}*"),
         "--controller agent:{runs}/agent-rp --controller expert",
     )
-    # the expert's full evaluation as agent-gait's (pipeline.py): 35 min
     agents = 2 * (len(ablation) + len(more)) + len(ARMS) * len(ablation) + len(more)
     groups = " ".join(
         f"--group {arm}={','.join(f'{_R}/{arm}-seed{seed}' for seed in ablation)}" for arm in ARMS
@@ -151,7 +151,7 @@ def _scoring_rows(ablation: Sequence[int], more: Sequence[int]) -> tuple[Row, ..
         Row(
             "robust-evaluate",
             "agent-robust's tables' runs",
-            ByMode(AGENT_SEED_EVALUATION_MINUTES * agents + 35, 4),
+            ByMode(AGENT_SEED_EVALUATION_MINUTES * agents + EXPERT_EVALUATION_MINUTES, 4),
             (
                 "evaluate",
                 *controllers,

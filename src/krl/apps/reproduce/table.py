@@ -35,6 +35,10 @@ AGENT_SEED_EVALUATION_MINUTES: float = 5.0
 """Wall time of one agent seed's full evaluation on both cores of the development machine [min]: the
 thesis's and the harder courses, the default push sweep at 50 attempts per force and the friction sweep
 (rp-sym's two seeds took 9.3 min in ``examples/robust/agent-robust.sh`` on 2026-12-07)."""
+EXPERT_EVALUATION_MINUTES: float = 35.0
+"""Wall time of the MPC expert's full evaluation (the same courses and sweeps) on both cores of the
+development machine [min]: the expert's and the kernel's together in agent-gait's evaluation of 2026-12-05
+(one robot per process then), so an upper bound where the expert walks alone (agent-robust's)."""
 AGENT_PUSHES_PER_MINUTE: float = 450.0
 """Push attempts one agent walks per minute on both cores of the development machine (agent-robust's four
 seeds in the left-right sweep of 2026-12-07: 8 960 attempts in 19.7 min; rp-sym's balanced sweep: 1 344 in
