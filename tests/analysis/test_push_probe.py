@@ -27,7 +27,8 @@ def test_touchdowns_count_a_foot_after_a_real_swing_not_a_flicker():
 
 def synthetic_trace():
     """Walking along +x at 0.4 m/s; pushed left: 1.5 m/s across the walk for 2.5 <= t < 2.8 s; trunk at
-    0.25 m, 0.20 m at 2.9 s; feet FR and RL come down at 2.2 s and again at 2.62 s."""
+    0.25 m, 0.20 m at 2.9 s; rolled by -0.3 rad at 2.7 s (and by 0.5 rad at 1 s, before the push); feet FR
+    and RL come down at 2.2 s and again at 2.62 s."""
     time = np.arange(0, 5, DT)
     velocity = np.zeros((time.size, 3))
     velocity[:, 0] = 0.4
@@ -40,11 +41,14 @@ def synthetic_trace():
         contact[(time >= 2.1) & (time < 2.2 - 1e-9), foot] = False
         contact[(time >= 2.5) & (time < 2.62 - 1e-9), foot] = False
     gait = np.full((time.size, 3), np.nan)
+    rpy = np.zeros((time.size, 3))
+    rpy[np.argmin(np.abs(time - 2.7)), 0] = -0.3
+    rpy[np.argmin(np.abs(time - 1.0)), 0] = 0.5
     return {
         "time": time,
         "base_pos": base_pos,
         "velocity": velocity,
-        "rpy": np.zeros((time.size, 3)),
+        "rpy": rpy,
         "foot_contact": contact,
         "gait": gait,
     }
@@ -58,6 +62,7 @@ def test_the_response_to_a_push_by_hand():
     # the 40-step average falls below 0.1 m/s when 2 of its steps are pushed ones: 2.985 s, 0.185 s after
     assert summary["recovery_time"] == pytest.approx(0.185)
     assert summary["min_height"] == 0.2 and summary["first_touchdown"] == pytest.approx(0.12)
+    assert summary["peak_roll"] == 0.3  # either way, after the push began
     assert summary["touchdowns"] == 2 and summary["stride_after"] is None
     assert summary["stride_before"] is None  # one touchdown per foot before: no interval
     assert summary["min_ride_height"] is None and summary["max_clock_rate"] is None
@@ -75,6 +80,18 @@ def test_a_probe_refuses_what_it_cannot_do():
         PushProbe(start_time=-1.0)
     with pytest.raises(ValueError, match="push magnitude must be a finite number"):
         PushProbe(magnitude=float("nan"))
+    with pytest.raises(ValueError, match="unknown push point 'side'; known: centre, top, bottom"):
+        PushProbe(point="side")
+
+
+def test_a_probe_strikes_the_trunk_where_asked():
+    """The middle of the top face is the trunk box's half height above its origin; the force is the same."""
+    centre, top = PushProbe(magnitude=500), PushProbe(magnitude=500, point="top")
+    assert centre.push().point.tolist() == [0.0, 0.0, 0.0]
+    assert (
+        top.push().point.tolist() == [0.0, 0.0, 0.057] and PushProbe(point="bottom").push().point[2] == -0.057
+    )
+    assert top.push().force.tolist() == centre.push().force.tolist()
 
 
 def test_a_traced_push_is_the_push_sweeps_run():

@@ -21,7 +21,7 @@ import numpy as np
 
 from krl.control.types import JointCommand
 from krl.eval.episodes import PushSweep
-from krl.robots.a1.constants import LEG_NAMES
+from krl.robots.a1.constants import LEG_NAMES, TRUNK_HALF_SIZE
 from krl.sim.pushes import Push
 from krl.sim.state import RobotState
 from krl.util.output import npz_bytes, write_atomic
@@ -34,6 +34,14 @@ PROBE_DIRECTIONS: dict[str, tuple[float, float]] = {
     "backward": (-1.0, 0.0),
 }
 """Push directions relative to the walk (the robot walks along +x), as world (x, y) unit vectors."""
+
+PROBE_POINTS: dict[str, tuple[float, float, float]] = {
+    "centre": (0.0, 0.0, 0.0),
+    "top": (0.0, 0.0, float(TRUNK_HALF_SIZE[2])),
+    "bottom": (0.0, 0.0, -float(TRUNK_HALF_SIZE[2])),
+}
+"""Where the push strikes, trunk frame [m]: the trunk's origin, or the middle of its top or bottom face (the
+sweep draws points over the whole surface; docs/agent-robust.md on why the top matters)."""
 
 TRACE_FIELDS: dict[str, str] = {
     "time": "simulated time at the step [s]. Shape: (T,)",
@@ -66,14 +74,16 @@ SETTLED: float = 0.1
 @dataclass(frozen=True)
 class PushProbe:
     """One push, the same for every controller: ``magnitude`` [N] towards ``direction`` (a key of
-    :data:`PROBE_DIRECTIONS`), horizontal, at the trunk's centre, from ``start_time`` [s] for ``duration``
-    [s], applied as the push sweep applies its pushes (:mod:`krl.sim.pushes`)."""
+    :data:`PROBE_DIRECTIONS`), horizontal, at ``point`` (a key of :data:`PROBE_POINTS`), from
+    ``start_time`` [s] for ``duration`` [s], applied as the push sweep applies its pushes
+    (:mod:`krl.sim.pushes`)."""
 
     magnitude: float = 600.0
     direction: str = "left"
     start_time: float = 2.55
     """[s]: mid-swing of the trot pair that lifted at 2.50 s (the kernel's clock; the expert's is in step)."""
     duration: float = 0.3
+    point: str = "centre"
     sweep: PushSweep = field(default_factory=PushSweep)
     """The walk: the sweep's waypoint, time limit and waypoint threshold."""
 
@@ -81,6 +91,8 @@ class PushProbe:
         if self.direction not in PROBE_DIRECTIONS:
             known = ", ".join(PROBE_DIRECTIONS)
             raise ValueError(f"unknown push direction {self.direction!r}; known: {known}")
+        if self.point not in PROBE_POINTS:
+            raise ValueError(f"unknown push point {self.point!r}; known: {', '.join(PROBE_POINTS)}")
         if not (np.isfinite(self.magnitude) and self.magnitude >= 0):
             raise ValueError(f"push magnitude must be a finite number >= 0 N, got {self.magnitude}")
         if not 0 <= self.start_time < self.sweep.time_limit:
@@ -95,8 +107,10 @@ class PushProbe:
         return np.array([x, y, 0.0])
 
     def push(self) -> Push:
-        """The push (:class:`krl.sim.pushes.Push`): at the trunk's origin, in the push sweep's mode."""
-        return Push(self.start_time, self.magnitude * self.unit, np.zeros(3), self.duration)
+        """The push (:class:`krl.sim.pushes.Push`): at :attr:`point`, in the push sweep's mode."""
+        return Push(
+            self.start_time, self.magnitude * self.unit, np.array(PROBE_POINTS[self.point]), self.duration
+        )
 
 
 class StateRecorder:
@@ -184,7 +198,8 @@ def push_summary(probe: PushProbe, trace: dict[str, np.ndarray], metrics: dict[s
     ``peak_speed`` [m/s]: the trunk's largest speed along the push (:data:`SMOOTHING`); ``drift`` [m]: how
     far that speed carried it at most (the walk's own motion taken out);
     ``recovery_time`` [s]: from the push's end until that speed first falls below :data:`SETTLED` (None if
-    it never does); ``min_height`` [m] of the trunk; ``first_touchdown`` [s] after the push began;
+    it never does); ``min_height`` [m] of the trunk; ``peak_roll`` [rad]: its largest roll either way (a
+    fall ends the run, so a faller's is the roll it fell at); ``first_touchdown`` [s] after the push began;
     ``touchdowns`` within 1 s of it; ``stride_before`` and ``stride_after`` [s]: a foot's touchdown interval
     over :data:`RHYTHM_WINDOW` before and after it; ``min_ride_height`` [m] and ``max_clock_rate``: the
     gait an agent chose (None for controllers without a gait path); ``error``: why the run ended early (a
@@ -207,6 +222,7 @@ def push_summary(probe: PushProbe, trace: dict[str, np.ndarray], metrics: dict[s
         "drift": round(float(carried.max()), 4) if carried.size else None,
         "recovery_time": recovery,
         "min_height": round(float(trace["base_pos"][after, 2].min()), 4) if after.any() else None,
+        "peak_roll": round(float(np.abs(trace["rpy"][after, 0]).max()), 4) if after.any() else None,
         "first_touchdown": round(float(later.min() - start), 4) if later.size else None,
         "touchdowns": int(((later >= start) & (later < start + 1.0)).sum()),
         "stride_before": _stride(downs, start - RHYTHM_WINDOW, start),
@@ -225,6 +241,7 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
     "drift",
     "recovery_time",
     "min_height",
+    "peak_roll",
     "first_touchdown",
     "touchdowns",
     "stride_before",
@@ -264,7 +281,8 @@ def push_figure(probe: PushProbe, traces: dict[str, dict[str, np.ndarray]]):
         contact_axis.set(yticks=ticks, yticklabels=LEG_NAMES, ylim=(0, len(LEG_NAMES)))
         contact_axis.set_title(f"{label}: feet on the ground", loc="left")
     titles = [
-        f"speed along the push [m/s] ({probe.magnitude:g} N {probe.direction}, less the walk's)",
+        f"speed along the push [m/s] ({probe.magnitude:g} N {probe.direction}"
+        f"{'' if probe.point == 'centre' else f' on the {probe.point}'}, less the walk's)",
         "trunk height [m] (dashed: the agent's ride height)",
         "roll [rad]",
         "an agent's gait clock rate (× the kernel's)",

@@ -12,23 +12,18 @@ what the controllers at hand reach, not a proof of a physical limit: a better co
 "some seed" would be if each seed survived each push independently at its own rate, 1 - Π_s (1 - p_s):
 an observed share below it says the same pushes defeat the seeds together.
 
-``python -m krl.analysis.push_headroom RESULTS [--controller LABEL ...] [--out FILE]`` prints (or writes)
-the table; docs/agent-robust.md ("What limits agent-robust") reads it.
+``python -m krl.analysis.push_sweep`` writes its table.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import statistics
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 from krl.eval.evaluate import PUSH_DIR
-from krl.eval.report import collect
-from krl.util.output import write_atomic
 
 SAME_PUSH_SETTINGS: tuple[str, ...] = ("seed", "directions", "window", "target", "d_min")
 """The push sweep's settings (a record's ``sweep``) that decide attempt ``a``'s push or the walk it meets
@@ -114,8 +109,8 @@ def headroom_rows(outcomes: Outcomes, controllers: Sequence[str]) -> list[dict[s
     return [*rows, mean_row]
 
 
-def headroom_markdown(rows: list[dict[str, Any]], controllers: Sequence[str], results: Path) -> str:
-    """The rows as a markdown table, one column group per controller."""
+def headroom_markdown(rows: list[dict[str, Any]], controllers: Sequence[str]) -> str:
+    """The rows as a markdown section, one column group per controller."""
     header = [
         "force [N]",
         "pushes",
@@ -138,38 +133,8 @@ def headroom_markdown(rows: list[dict[str, Any]], controllers: Sequence[str], re
             cells += [f"{row[f'{label}/{name}']:.2f}" for name in names]
         lines.append("| " + " | ".join(cells) + " |")
     return (
-        f"# Push headroom: {results}\n\nShare of the sweep's distinct pushes survived (success), per force; "
-        "`python -m krl.analysis.push_headroom` (its docstring says how to read it).\n\n"
-        + "\n".join(lines)
-        + "\n"
+        "## Headroom\n\nShare of the sweep's distinct pushes survived (success), per force: by some "
+        "controller seed in the folder, and per controller its mean over seeds, by some seed, by every seed "
+        "and by some seed were each seed's survival independent at its rate (`krl.analysis.push_headroom`)."
+        "\n\n" + "\n".join(lines) + "\n"
     )
-
-
-def main(argv: Sequence[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("results", type=Path, help="a krl evaluate --out folder with push-sweep records")
-    parser.add_argument(
-        "--controller", action="append", help="a controller label to break down (default: every one)"
-    )
-    parser.add_argument("--out", type=Path, help="write the markdown table here instead of printing it")
-    args = parser.parse_args(argv)
-    try:
-        found = collect(args.results)
-        controllers = args.controller or list(found)
-        for label in controllers:
-            if label not in found:
-                raise ValueError(
-                    f"--controller {label!r}: not in {args.results} (labels: {', '.join(found)})"
-                )
-        rows = headroom_rows(push_outcomes(found), controllers)
-    except (OSError, ValueError) as error:
-        parser.exit(2, f"push_headroom: error: {error}\n")
-    text = headroom_markdown(rows, controllers, args.results)
-    if args.out:
-        write_atomic(args.out, text)
-    else:
-        print(text, end="")
-
-
-if __name__ == "__main__":
-    main()

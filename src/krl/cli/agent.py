@@ -210,7 +210,9 @@ def run_push(args: argparse.Namespace) -> int:
     from krl.analysis.push import PushProbe, push_trace, write_push_report
     from krl.eval.controllers import distinct_controllers, parse_controller
 
-    probe = PushProbe(**given(magnitude=args.magnitude, direction=args.direction, start_time=args.at))
+    probe = PushProbe(
+        **given(magnitude=args.magnitude, direction=args.direction, start_time=args.at, point=args.point)
+    )
     specs = distinct_controllers([parse_controller(text) for text in args.controller or PUSH_CONTROLLERS])
     runs = {spec.driven_label: push_trace(probe, spec.build()) for spec in specs}
     written = write_push_report(probe, runs, Path(args.out))
@@ -386,7 +388,7 @@ def _add_stairs(group) -> None:
 
 def _add_push(group) -> None:
     """``krl agent push`` (the push's defaults: :class:`krl.analysis.push.PushProbe`)."""
-    from krl.analysis.push import PROBE_DIRECTIONS, PushProbe
+    from krl.analysis.push import PROBE_DIRECTIONS, PROBE_POINTS, PushProbe
 
     p = group.add_parser(
         "push",
@@ -409,6 +411,13 @@ def _add_push(group) -> None:
         "start_time",
         type=float,
         help="the push's start [s] (default {default}: mid-swing)",
+    )
+    add_field_option(
+        p,
+        "--point",
+        PushProbe,
+        choices=tuple(PROBE_POINTS),
+        help="where it strikes: the trunk's centre, or the middle of its top or bottom face",
     )
     p.add_argument("--out", required=True, help="output folder (push-trace.png, .json, .csv, .npz)")
     _add_output(p)
