@@ -51,6 +51,8 @@ def synthetic_trace():
         "rpy": rpy,
         "foot_contact": contact,
         "gait": gait,
+        "residual": np.full((time.size, 4, 3), np.nan),
+        "residual_action": np.full((time.size, 12), np.nan),
     }
 
 
@@ -66,6 +68,18 @@ def test_the_response_to_a_push_by_hand():
     assert summary["touchdowns"] == 2 and summary["stride_after"] is None
     assert summary["stride_before"] is None  # one touchdown per foot before: no interval
     assert summary["min_ride_height"] is None and summary["max_clock_rate"] is None
+    assert summary["peak_residual"] is None and summary["residual_at_bound"] is None
+    # an agent: its residual 0.03 m but for 0.05 m at 2.6 s, one action component of 12 at the bound
+    # (-1) for the first half of the window
+    agent = synthetic_trace()
+    agent["residual"][:] = 0.03
+    agent["residual"][np.argmin(np.abs(agent["time"] - 2.6)), 1, 2] = -0.05
+    agent["residual_action"][:] = 0.5
+    agent["residual_action"][agent["time"] < 3.5 - 1e-9, 4] = -1.0
+    summary = push_summary(probe, agent, {"fell": False, "success": True})
+    assert summary["peak_residual"] == 0.05 and summary["residual_at_bound"] == pytest.approx(
+        1 / 24, abs=1e-4
+    )
     # along the walk nothing changed: the walk's own 0.4 m/s is not the push's
     forward = PushProbe(magnitude=400, direction="forward", start_time=2.5)
     summary = push_summary(forward, synthetic_trace(), {"fell": False, "success": True})
@@ -166,3 +180,18 @@ def test_a_summary_of_a_run_that_ended_with_an_error_is_a_fall_with_that_error()
         push_summary(PushProbe(start_time=2.5), synthetic_trace(), {"fell": False, "success": True})["error"]
         is None
     )
+
+
+def test_an_agents_trace_holds_its_residual_within_the_bound():
+    """agent-robust's residual: the raw action in [-1, 1], the filtered one in metres within the bound,
+    and the summary reads both."""
+    controller = parse_controller("agent:robust@150").build()
+    probe = PushProbe(magnitude=300, direction="left", start_time=2.55)
+    trace, metrics = push_trace(probe, controller)
+    bound = np.asarray(controller.policy.config.residual.residual_bound)
+    raw, residual = trace["residual_action"], trace["residual"]
+    assert raw.shape == (trace["time"].size, 12) and np.all(np.abs(raw) <= 1.0)
+    assert residual.shape == (trace["time"].size, 4, 3) and np.all(np.abs(residual) <= bound + 1e-12)
+    assert np.abs(residual).max() > 0.0
+    summary = push_summary(probe, trace, metrics)
+    assert 0.0 < summary["peak_residual"] <= bound.max() and 0.0 <= summary["residual_at_bound"] <= 1.0

@@ -51,6 +51,10 @@ TRACE_FIELDS: dict[str, str] = {
     "foot_contact": "foot touched the ground in the last physics step, FR FL RR RL. Shape: (T, 4)",
     "gait": "the agent's step height [m], ride height [m] and clock rate for the next step; NaN for "
     "controllers without a gait path. Shape: (T, 3)",
+    "residual": "the agent's filtered foot residual for the next step, base frame [m], feet FR FL RR RL; NaN "
+    "for controllers without one. Shape: (T, 4, 3)",
+    "residual_action": "the policy's residual action before the filter, in [-1, 1] (× the residual bound: "
+    "metres), feet FR FL RR RL × (x, y, z); NaN for controllers without one. Shape: (T, 12)",
 }
 """Every array of a push trace (T control steps; the state the controller saw at the step)."""
 
@@ -66,6 +70,9 @@ MIN_SWING: float = 0.05
 SMOOTHING: float = 0.2
 """The speed along the push is a moving average over this window [s] (a trot's step), less its mean over
 the same window before the push, so the gait's own sway and the walk itself are not counted."""
+
+AT_BOUND: float = 0.99
+"""A residual action component counts as at its bound from this |a| on (the action path clips at 1)."""
 
 SETTLED: float = 0.1
 """The push's motion has stopped once that speed falls below this [m/s]."""
@@ -127,6 +134,7 @@ class StateRecorder:
         joint_command = self.controller.act(state, command)
         path = getattr(self.controller, "residual", None)  # an agent's action path
         gait = path.gait_inputs[0, 3:6] if path is not None else np.full(3, np.nan)
+        residual = path.residual[0] if path is not None else np.full((len(LEG_NAMES), 3), np.nan)
         values = {
             "time": np.float64(state.time),
             "base_pos": state.base_pos,
@@ -134,10 +142,25 @@ class StateRecorder:
             "rpy": state.rpy,
             "foot_contact": state.foot_contact,
             "gait": gait,
+            "residual": residual,
+            "residual_action": self._residual_action(),
         }
         for name, value in values.items():
             self.rows[name].append(np.array(value, copy=True))
         return joint_command
+
+    def _residual_action(self) -> np.ndarray:
+        """The residual part of an agent's last action, clipped as its action path clips it. Shape: (12,)."""
+        path, action = (
+            getattr(self.controller, "residual", None),
+            getattr(self.controller, "last_action", None),
+        )
+        start = 0
+        for part in path.parts if path is not None and action is not None else ():
+            if part.name == "residual":
+                return np.clip(action[start : start + part.size], -1.0, 1.0)
+            start += part.size
+        return np.full(3 * len(LEG_NAMES), np.nan)
 
     def arrays(self) -> dict[str, np.ndarray]:
         return {name: np.array(values) for name, values in self.rows.items()}
@@ -202,7 +225,10 @@ def push_summary(probe: PushProbe, trace: dict[str, np.ndarray], metrics: dict[s
     fall ends the run, so a faller's is the roll it fell at); ``first_touchdown`` [s] after the push began;
     ``touchdowns`` within 1 s of it; ``stride_before`` and ``stride_after`` [s]: a foot's touchdown interval
     over :data:`RHYTHM_WINDOW` before and after it; ``min_ride_height`` [m] and ``max_clock_rate``: the
-    gait an agent chose (None for controllers without a gait path); ``error``: why the run ended early (a
+    gait an agent chose (None for controllers without a gait path); ``peak_residual`` [m]: the largest
+    component of an agent's filtered foot residual and ``residual_at_bound``: the share of its residual
+    action's components at the bound (|a| >= :data:`AT_BOUND`, before the filter), both over the response
+    window (None for controllers without a residual); ``error``: why the run ended early (a
     diverging simulation, an MPC that gave up; None), such a run counting as a fall (``fell``) as
     ``krl evaluate``'s aggregates count it (:mod:`krl.eval.summaries`)."""
     time, start = trace["time"], probe.start_time
@@ -214,6 +240,9 @@ def push_summary(probe: PushProbe, trace: dict[str, np.ndarray], metrics: dict[s
     later = np.concatenate([d[d > start] for d in downs])
     gait = trace["gait"][after]
     driven = bool(np.isfinite(gait).all()) and gait.size > 0
+    residual, raw = trace["residual"][after], trace["residual_action"][after]
+    if not (np.isfinite(residual).all() and np.isfinite(raw).all()):  # not an agent
+        residual, raw = np.zeros(0), np.zeros(0)
     error = metrics.get("error")
     return {
         "fell": bool(metrics["fell"]) or error is not None,
@@ -229,6 +258,8 @@ def push_summary(probe: PushProbe, trace: dict[str, np.ndarray], metrics: dict[s
         "stride_after": _stride(downs, start, start + RHYTHM_WINDOW),
         "min_ride_height": round(float(gait[:, 1].min()), 4) if driven else None,
         "max_clock_rate": round(float(gait[:, 2].max()), 4) if driven else None,
+        "peak_residual": round(float(np.abs(residual).max()), 4) if residual.size else None,
+        "residual_at_bound": round(float((np.abs(raw) >= AT_BOUND).mean()), 4) if raw.size else None,
         "error": error,
     }
 
@@ -248,6 +279,8 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
     "stride_after",
     "min_ride_height",
     "max_clock_rate",
+    "peak_residual",
+    "residual_at_bound",
     "error",
 )
 """The columns of ``push-trace.csv``: the controller's label, then :func:`push_summary`'s keys."""
