@@ -35,6 +35,16 @@ def test_a_curriculum_past_the_largest_measured_push_is_refused_in_one_line():
     EnvConfig(push_magnitude=(100.0, 1200.0))  # no curriculum: its maximum is not asked about
 
 
+def test_a_top_share_outside_zero_to_one_is_refused_in_one_line_and_reaches_the_pushes(small_config):
+    for bad in (1.5, -0.2, True, "half"):
+        with pytest.raises(AgentConfigError, match="push_top_share must be in") as error:
+            EnvConfig(push_top_share=bad)
+        assert "\n" not in str(error.value)
+    env = replace(small_config.env, push_top_share=0.75)
+    assert ResidualEnvBatch(replace(small_config, env=env), 1).pushes.top_share == 0.75
+    assert ResidualEnvBatch(small_config, 1).pushes.top_share is None
+
+
 def test_the_env_judges_every_push_and_draws_up_to_the_ceiling_it_is_given(small_config):
     env = replace(small_config.env, push_interval=(0.05, 0.1), push_magnitude=(100.0, 200.0))
     batch = ResidualEnvBatch(replace(small_config, env=env), 2)

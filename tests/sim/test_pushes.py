@@ -76,6 +76,31 @@ def test_trunk_points_lie_on_the_box_surface():
         assert (ratio <= 1.0 + 1e-12).all()
 
 
+def test_a_top_share_sets_how_often_the_top_face_is_struck_and_none_draws_as_before():
+    """The option's default draws the very points it drew before it existed (seed 7, by hand from the old
+    code); with a share, the top face takes it and the other five faces the rest by area."""
+    rng = np.random.default_rng(7)
+    assert [random_trunk_point(rng).round(6).tolist() for _ in range(2)] == [
+        [0.106056, 0.053483, -0.057],
+        [-0.132094, 0.062318, -0.057],
+    ]
+    for share in (0.0, 0.5, 1.0):
+        rng = np.random.default_rng(1)
+        points = np.array([random_trunk_point(rng, share) for _ in range(4000)])
+        ratio = np.abs(points) / TRUNK_HALF_SIZE
+        assert np.allclose(ratio.max(axis=1), 1.0) and (ratio <= 1.0 + 1e-12).all()
+        top = np.isclose(points[:, 2], TRUNK_HALF_SIZE[2])
+        assert abs(top.mean() - share) < 0.03
+        bottom = np.isclose(points[:, 2], -TRUNK_HALF_SIZE[2])
+        if share < 1:  # the bottom's share of the five other faces' area: 0.330
+            assert abs(bottom.sum() / (~top).sum() - 0.330) < 0.03
+    drawn = PushDistribution(top_share=1.0).sample(np.random.default_rng(3), 1.0)
+    assert drawn.point[2] == TRUNK_HALF_SIZE[2]
+    for bad in (-0.1, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="push top_share must be in"):
+            PushDistribution(top_share=bad)
+
+
 def test_training_schedule_follows_the_thesis_distribution():
     schedule = PushSchedule(PushDistribution(), np.random.default_rng(7))
     times = np.arange(0, 600, 0.005)

@@ -174,6 +174,10 @@ class EnvConfig:
     """Time between pushes ~ U(low, high) [s]."""
     push_magnitude: tuple[float, float] = PushDistribution.magnitude
     """Push force ~ U(low, high) [N], for 0.3 s, at a random trunk point, directed slightly upwards."""
+    push_top_share: float | None = None
+    """Probability that a training push strikes the trunk's top face, the other faces sharing the rest by
+    area (ours, docs/agent-robust.md: sideways pushes on the top roll every krl agent over); None: points
+    uniform over the surface, the top taking its share of the area (0.248)."""
     push_curriculum: bool = False
     """The pushes' upper magnitude grows as the agent survives them (ours, :mod:`krl.agent.curriculum`):
     from ``push_magnitude``'s high, by ``push_curriculum_step`` after each rollout whose pushes were
@@ -227,6 +231,11 @@ class EnvConfig:
         if self.push_interval[0] <= 0:
             raise AgentConfigError("push_interval must be > 0 s")
         _range("push_magnitude", self.push_magnitude)
+        share = self.push_top_share
+        if share is not None and (
+            isinstance(share, bool) or not isinstance(share, (int, float)) or not 0 <= share <= 1
+        ):
+            raise AgentConfigError(f"push_top_share must be in [0, 1] or null, got {share!r}")
         self._check_curriculum()
         if not isinstance(self.reward, RewardConfig):
             raise AgentConfigError(f"reward must be a reward configuration, got {self.reward!r}")

@@ -86,7 +86,9 @@ class ResidualEnvBatch:
         self.reward = config.env.reward
         self.command_params = replace(CommandParams(), d_min=config.env.d_min)
         env = config.env
-        self.pushes = PushDistribution(interval=env.push_interval, magnitude=env.push_magnitude)
+        self.pushes = PushDistribution(
+            interval=env.push_interval, magnitude=env.push_magnitude, top_share=env.push_top_share
+        )
         self.rngs: list[np.random.Generator] = [np.random.default_rng(index) for index in range(num_envs)]
         self.sims: SimBatch | None = None
         self.episodes: EpisodeBatch | None = None

@@ -141,16 +141,33 @@ def random_direction(
     )
 
 
-def random_trunk_point(rng: np.random.Generator) -> np.ndarray:
-    """Point uniformly distributed over the surface of the trunk box, in the base frame [m]. Shape: (3,).
+def random_trunk_point(rng: np.random.Generator, top_share: float | None = None) -> np.ndarray:
+    """Point on the surface of the trunk box, in the base frame [m]. Shape: (3,).
 
-    A face is drawn with probability proportional to its area, then a point uniformly on it.
+    A face is drawn with probability proportional to its area, then a point uniformly on it. With
+    ``top_share``, the top face (+z) is drawn with that probability instead (its share of the area is
+    0.248) and the other five faces share the rest by area; None draws exactly as before the option.
     """
     hx, hy, hz = TRUNK_HALF_SIZE
     face_areas = np.array([hy * hz, hx * hz, hx * hy])  # faces normal to x, y, z (two of each)
+    if top_share is not None:
+        return _point_with_top_share(rng, top_share, face_areas)
     axis = rng.choice(3, p=face_areas / face_areas.sum())
     point = rng.uniform(-TRUNK_HALF_SIZE, TRUNK_HALF_SIZE)
     point[axis] = TRUNK_HALF_SIZE[axis] * rng.choice((-1.0, 1.0))
+    return point
+
+
+def _point_with_top_share(rng: np.random.Generator, top_share: float, face_areas: np.ndarray) -> np.ndarray:
+    """:func:`random_trunk_point` with the top face drawn with probability ``top_share``."""
+    point = rng.uniform(-TRUNK_HALF_SIZE, TRUNK_HALF_SIZE)
+    if rng.random() < top_share:
+        point[2] = TRUNK_HALF_SIZE[2]
+        return point
+    others = np.array([face_areas[0], face_areas[0], face_areas[1], face_areas[1], face_areas[2]])
+    face = rng.choice(5, p=others / others.sum())  # ±x, ±y, -z
+    axis, sign = (0, 0, 1, 1, 2)[face], (1.0, -1.0, 1.0, -1.0, -1.0)[face]
+    point[axis] = TRUNK_HALF_SIZE[axis] * sign
     return point
 
 
@@ -168,8 +185,15 @@ class PushDistribution:
     """Push window [s]."""
     mode: PushMode = "control_step"
     """How the force is applied across physics steps (see :class:`Push`)."""
+    top_share: float | None = None
+    """Probability that a push strikes the trunk's top face (:func:`random_trunk_point`); None: points
+    uniform over the surface (the top then 0.248 of them)."""
 
     def __post_init__(self) -> None:
+        if self.top_share is not None and not (
+            isinstance(self.top_share, (int, float)) and 0 <= self.top_share <= 1
+        ):
+            raise ValueError(f"push top_share must be in [0, 1] or None, got {self.top_share!r}")
         for name in ("interval", "magnitude"):
             low, high = getattr(self, name)
             if not (0 <= low <= high and np.isfinite(high)):
@@ -190,7 +214,7 @@ class PushDistribution:
         return Push(
             start_time=start_time,
             force=size * random_direction(rng, self.max_elevation, azimuth_range),
-            point=random_trunk_point(rng),
+            point=random_trunk_point(rng, self.top_share),
             duration=self.duration,
             mode=self.mode,
         )
