@@ -132,7 +132,12 @@ def test_the_command_reads_a_results_folder_and_writes_both_tables(tmp_path, cap
     assert "| 400 | 2 | 1.00 | 0.75 | 1.00 | 0.50 | 1.00 | 0.50 |" in text
     assert "| mean |  | 0.75 | 0.38 | 0.50 | 0.25 | 0.50 | 0.50 |" in text
     assert "| sideways | top | 0.75 (4) | 0.00 (4) | 0.50 (2) | 0.50 (2) |" in text
+    main([str(tmp_path / "results"), "--seeds", "2", "--out", str(out)])  # agent's seed 2 and the expert
+    text = out.read_text()
+    assert "(seeds 2)" in text and "agent (1 seed): mean" in text and "some of the 2 controller seeds" in text
+    assert "| 400 | 2 | 1.00 | 1.00 | 0.50 |" in text  # some of the two; seed 2; the expert
     for argv, message in (
+        (["--seeds", "2,x"], "--seeds '2,x': expected SEED,SEED"),
         (["--controller", "nobody"], "--controller 'nobody': not in"),
         (["--band", "9:1"], "--band '9:1': expected LOW:HIGH"),
     ):
