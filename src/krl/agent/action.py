@@ -38,6 +38,9 @@ COMMAND_LABELS: tuple[str, ...] = ("v_x", "v_y", "yaw_rate")
 DRIVE_PARTS: tuple[str, ...] = ("command", "steer", "heights", "clock_rate")
 """The parts that drive the kernel's inputs or the clock, in action order."""
 
+SATURATED: float = 0.99
+"""An action number at or beyond ±this asks for its bound (actions are clipped to ±1)."""
+
 
 @dataclass(frozen=True)
 class ActionPart:

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from krl.agent.action import SATURATED
 from krl.control.types import JointCommand
 from krl.eval.episodes import PushSweep
 from krl.robots.a1.constants import LEG_NAMES, TRUNK_HALF_SIZE
@@ -70,9 +71,6 @@ MIN_SWING: float = 0.05
 SMOOTHING: float = 0.2
 """The speed along the push is a moving average over this window [s] (a trot's step), less its mean over
 the same window before the push, so the gait's own sway and the walk itself are not counted."""
-
-AT_BOUND: float = 0.99
-"""A residual action component counts as at its bound from this |a| on (the action path clips at 1)."""
 
 SETTLED: float = 0.1
 """The push's motion has stopped once that speed falls below this [m/s]."""
@@ -227,9 +225,9 @@ def push_summary(probe: PushProbe, trace: dict[str, np.ndarray], metrics: dict[s
     over :data:`RHYTHM_WINDOW` before and after it; ``min_ride_height`` [m] and ``max_clock_rate``: the
     gait an agent chose (None for controllers without a gait path); ``peak_residual`` [m]: the largest
     component of an agent's filtered foot residual and ``residual_at_bound``: the share of its residual
-    action's components at the bound (|a| >= :data:`AT_BOUND`, before the filter), both over the response
-    window (None for controllers without a residual); ``error``: why the run ended early (a
-    diverging simulation, an MPC that gave up; None), such a run counting as a fall (``fell``) as
+    action's components at the bound (|a| >= :data:`krl.agent.action.SATURATED`, before the filter),
+    both over the response window (None for controllers without a residual); ``error``: why the run ended
+    early (a diverging simulation, an MPC that gave up; None), such a run counting as a fall (``fell``) as
     ``krl evaluate``'s aggregates count it (:mod:`krl.eval.summaries`)."""
     time, start = trace["time"], probe.start_time
     after = (time >= start) & (time < start + RESPONSE_WINDOW)
@@ -259,7 +257,7 @@ def push_summary(probe: PushProbe, trace: dict[str, np.ndarray], metrics: dict[s
         "min_ride_height": round(float(gait[:, 1].min()), 4) if driven else None,
         "max_clock_rate": round(float(gait[:, 2].max()), 4) if driven else None,
         "peak_residual": round(float(np.abs(residual).max()), 4) if residual.size else None,
-        "residual_at_bound": round(float((np.abs(raw) >= AT_BOUND).mean()), 4) if raw.size else None,
+        "residual_at_bound": round(float((np.abs(raw) >= SATURATED).mean()), 4) if raw.size else None,
         "error": error,
     }
 

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from krl.agent.action import DRIVE_PARTS, ActionPart, action_parts
+from krl.agent.action import DRIVE_PARTS, SATURATED, ActionPart, action_parts
 from krl.agent.callbacks import SUCCESS_TARGETS
 from krl.agent.config import AgentConfig, EnvConfig
 from krl.agent.policy import RECIPE_FIELDS, check_kernel_file, load_policy
@@ -123,9 +123,6 @@ class _BatchWalk:
         return [episode for episode in ended if episode is not None]
 
 
-SATURATED: float = 0.99
-"""An action number at or beyond ±this asks for its bound (actions are clipped to ±1)."""
-
 DRIVE_STATISTICS: tuple[str, ...] = ("mean", "p5", "p95", "at_low", "at_high")
 """What :func:`drive_usage` measures of each driven number, in table order."""
 
@@ -135,7 +132,7 @@ def drive_usage(parts: tuple[ActionPart, ...], actions: np.ndarray) -> dict[str,
     filter: what the policy asked for). Per number of each drive part (``heights.step_height``,
     ``clock_rate.rate``, …: the part's name and :attr:`krl.agent.action.ActionPart.labels`): the mean and
     the 5th and 95th percentiles of its value in the part's unit, and the fractions of steps at its low and
-    its high bound (:data:`SATURATED`).
+    its high bound (:data:`krl.agent.action.SATURATED`).
 
     Args:
         parts: the action's parts, in order (:func:`krl.agent.action.action_parts`).

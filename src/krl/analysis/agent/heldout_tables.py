@@ -9,8 +9,9 @@ from typing import Any
 
 import numpy as np
 
+from krl.agent.action import SATURATED
 from krl.agent.callbacks import SUCCESS_TARGETS
-from krl.analysis.agent.heldout import DRIVE_STATISTICS, HELDOUT_SEED, METRICS, SATURATED
+from krl.analysis.agent.heldout import DRIVE_STATISTICS, HELDOUT_SEED, METRICS
 from krl.util.output import csv_bytes, write_atomic
 
 
