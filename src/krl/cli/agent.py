@@ -145,9 +145,8 @@ def run_curves(args: argparse.Namespace) -> int:
         paths += plot_training_curves([Path(run) for run in args.run], Path(args.out))
     if args.window is not None and not args.reach:
         raise CliError("--window needs --reach: it averages the curves that --reach reads")
-    rows = (
-        reach_rows(groups, args.reach, args.window) if args.reach else None
-    )  # a bad label: before anything is drawn
+    # a bad label or window: refused before anything is drawn
+    rows = reach_rows(groups, args.reach, args.window) if args.reach else None
     if groups:
         paths += plot_seed_groups(groups, Path(args.out))
     result: dict = {"figures": [str(p) for p in paths]}
