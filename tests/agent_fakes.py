@@ -41,7 +41,7 @@ episodes so that some end within a few hundred steps."""
 def make_policy(config: AgentConfig, scale: float = 0.0, seed: int = 0) -> Policy:
     """A policy of the config's shape with weights ~ N(0, scale²) (scale 0: always the zero action)."""
     rng = np.random.default_rng(seed)
-    size = observation_size(config.observation.features)
+    size = observation_size(config.observation.features, config.observation.scan)
     widths = [size, *config.ppo.shared, *config.ppo.actor, config.residual.action_size]
     layers = [
         (scale * rng.standard_normal((widths[i + 1], widths[i])), scale * rng.standard_normal(widths[i + 1]))

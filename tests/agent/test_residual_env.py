@@ -60,10 +60,13 @@ def test_observation_layout_is_documented_and_selectable():
         ("kernel_targets", 7, 19),
         ("contact_force", 19, 23),
     ]
-    config = AgentConfig(observation=ObservationConfig(features=tuple(FEATURES)))
+    actor = tuple(name for name, feature in FEATURES.items() if not feature.privileged)
+    critic = tuple(name for name, feature in FEATURES.items() if feature.privileged)
+    config = AgentConfig(observation=ObservationConfig(features=actor, critic_features=critic))
     env = A1ResidualEnv(config)
     observation, _ = env.reset(seed=0)
-    assert observation.shape == (sum(f.size for f in FEATURES.values()),)
+    assert observation.shape == (observation_size(tuple(FEATURES), config.observation.scan),)
+    assert np.isfinite(observation).all()
 
 
 def test_unknown_feature_and_malformed_config_are_one_line_errors(tmp_path):
@@ -134,7 +137,8 @@ def test_the_env_docstring_shows_every_feature_of_the_registry():
 
     assert observation_table().replace("\n", "\n    ") in A1ResidualEnv.__doc__
     assert all(
-        f"``{name}`` | {feature.size} |" in A1ResidualEnv.__doc__ for name, feature in FEATURES.items()
+        f"``{name}`` | {feature.size if feature.size > 0 else 'grid'} |" in A1ResidualEnv.__doc__
+        for name, feature in FEATURES.items()
     )
     assert "gives D = 54" in A1ResidualEnv.__doc__
     assert observation_size(AgentConfig().observation.features) == 54

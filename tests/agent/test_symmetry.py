@@ -4,12 +4,13 @@ import numpy as np
 import pytest
 
 from krl.agent.action import DRIVE_PARTS, ActionPart
-from krl.agent.config import ResidualConfig
-from krl.agent.observation import FEATURES
+from krl.agent.config import ResidualConfig, ScanConfig
+from krl.agent.observation import FEATURES, feature_size
 from krl.agent.symmetry import (
     ACTION_PART_MIRRORS,
     FEATURE_MIRRORS,
     LEG_MIRROR,
+    SCAN_FEATURES,
     MirrorError,
     action_mirror,
     observation_mirror,
@@ -18,15 +19,17 @@ from krl.robots.a1.constants import HIP_OFFSETS, LEG_NAMES, LEG_SIDE
 
 
 def test_every_feature_and_action_part_has_a_mirror_of_its_size():
-    assert set(FEATURE_MIRRORS) == set(FEATURES)
-    for name, feature in FEATURES.items():
-        assert FEATURE_MIRRORS[name].size == feature.size, name
+    assert set(FEATURE_MIRRORS) | set(SCAN_FEATURES) == set(FEATURES)
+    scan = ScanConfig(x_range=(-0.4, 0.6), half_width=0.3, spacing=0.1)
+    for name in FEATURES:
+        mirror = observation_mirror((name,), scan)
+        assert mirror.size == feature_size(name, scan), name
     assert set(ACTION_PART_MIRRORS) == {"residual", *DRIVE_PARTS}
 
 
 def test_mirroring_twice_is_the_identity_for_every_feature():
     rng = np.random.default_rng(0)
-    mirror = observation_mirror(tuple(FEATURES))
+    mirror = observation_mirror(tuple(FEATURES), ScanConfig())
     x = rng.normal(size=(5, mirror.size))
     np.testing.assert_array_equal(mirror(mirror(x)), x)
     assert not np.allclose(mirror(x), x)  # it does something

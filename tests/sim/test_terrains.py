@@ -73,6 +73,7 @@ def test_names_and_defaults():
         "slope",
         "stairs",
         "pyramids",
+        "pits",
         "tabletop",
         "seesaw",
     }

@@ -20,7 +20,7 @@ from typing import Any
 
 from krl.control.commands import CommandParams
 from krl.control.filters import DEFAULT_ALPHA
-from krl.robots.a1.constants import FOOT_FRICTION, NUM_LEGS
+from krl.robots.a1.constants import FOOT_FRICTION, NUM_LEGS, STANDING_HEIGHT
 from krl.sim.pushes import Push, PushDistribution
 from krl.sim.terrains import HEIGHTFIELD_MAX_HEIGHT_RANGE, MAX_GROUND_FRICTION, PYRAMIDS_STEP_HEIGHT_RANGE
 from krl.task.reward import EVALUATION_REWARD, RewardConfig, RewardConfigError
@@ -140,6 +140,88 @@ class ResidualConfig:
         return self.drive_command or self.drive_steer or self.drive_heights or self.drive_rhythm
 
 
+CURRICULUM_TILES: tuple[str, ...] = ("pyramids", "pits", "rough", "slope")
+"""The tile kinds a terrain curriculum draws from (:mod:`krl.agent.terrain_curriculum` builds each)."""
+
+MAX_CURRICULUM_RISER: float = 0.25
+"""The highest riser a curriculum may train on [m] (about the A1's upper leg; legged_gym goes to 0.23)."""
+
+
+@dataclass(frozen=True)
+class TerrainCurriculumConfig:
+    """A terrain curriculum (ours, :mod:`krl.agent.terrain_curriculum`, docs/agent-perceptive.md): each
+    robot has a level; its terrains are drawn from ``tiles`` at that level's difficulty, interpolated
+    linearly from each range's low (level 0) to its high (the top level); it is promoted after an episode
+    that reached ``promote_targets`` waypoints and demoted after one that reached fewer than
+    ``demote_targets``. Replaces the terrain draw of ``heightfield_probability`` and
+    ``pyramids_probability``."""
+
+    levels: int = 10
+    """Number of levels."""
+    tiles: tuple[str, ...] = CURRICULUM_TILES
+    """Tile kinds drawn from (:data:`CURRICULUM_TILES`): ``pyramids`` (stairs up and down), ``pits`` (stairs
+    down and up), ``rough`` (the random height field), ``slope`` (a ramp up and down)."""
+    tile_weights: tuple[float, ...] = (0.35, 0.25, 0.25, 0.15)
+    """Probability weight of each tile kind, in ``tiles``' order."""
+    riser: tuple[float, float] = (0.03, 0.15)
+    """Riser height of the pyramids and pits at level 0 and at the top level [m]."""
+    roughness: tuple[float, float] = (0.02, 0.10)
+    """Block height bound of the rough height field at level 0 and at the top level [m]."""
+    incline: tuple[float, float] = (0.05, 0.35)
+    """Angle of the slopes at level 0 and at the top level [rad]."""
+    start_levels: int = 3
+    """A robot starts on a level drawn uniformly from 0 ... start_levels - 1."""
+    promote_targets: int = 4
+    """Waypoints an episode must reach for a promotion (to a random level after the top, as legged_gym)."""
+    demote_targets: int = 2
+    """An episode reaching fewer waypoints demotes (never below level 0)."""
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.levels, int) and self.levels >= 1):
+            raise AgentConfigError(f"terrain curriculum levels must be an integer >= 1, got {self.levels!r}")
+        if not self.tiles:
+            raise AgentConfigError(
+                f"the terrain curriculum has no tiles; give some of {', '.join(CURRICULUM_TILES)}"
+            )
+        unknown = [tile for tile in self.tiles if tile not in CURRICULUM_TILES]
+        if unknown or len(set(self.tiles)) != len(self.tiles):
+            raise AgentConfigError(
+                f"terrain curriculum tiles must be distinct kinds of {', '.join(CURRICULUM_TILES)}, got "
+                f"{list(self.tiles)!r}"
+            )
+        weights = self.tile_weights
+        if len(weights) != len(self.tiles) or not all(
+            isinstance(w, (int, float)) and math.isfinite(w) and w > 0 for w in weights
+        ):
+            raise AgentConfigError(
+                f"tile_weights must be one positive number per tile ({len(self.tiles)}), "
+                f"got {list(weights)!r}"
+            )
+        _range("terrain curriculum riser", self.riser)
+        _range("terrain curriculum roughness", self.roughness)
+        _range("terrain curriculum incline", self.incline)
+        if self.riser[0] <= 0 or self.riser[1] > MAX_CURRICULUM_RISER:
+            raise AgentConfigError(
+                f"terrain curriculum riser must lie in (0, {MAX_CURRICULUM_RISER:g}] m, "
+                f"got {list(self.riser)!r}"
+            )
+        if self.roughness[0] <= 0 or not 0 < self.incline[0] <= self.incline[1] < 0.6:
+            raise AgentConfigError("terrain curriculum roughness must be > 0 m and incline in (0, 0.6) rad")
+        if not (isinstance(self.start_levels, int) and 1 <= self.start_levels <= self.levels):
+            raise AgentConfigError(
+                f"start_levels must be an integer in [1, levels = {self.levels}], got {self.start_levels!r}"
+            )
+        if not (
+            isinstance(self.promote_targets, int)
+            and isinstance(self.demote_targets, int)
+            and 0 <= self.demote_targets <= self.promote_targets
+        ):
+            raise AgentConfigError(
+                "promote_targets and demote_targets must be integers with "
+                "0 <= demote_targets <= promote_targets"
+            )
+
+
 @dataclass(frozen=True)
 class EnvConfig:
     """The training environment (Section 4.2.9)."""
@@ -190,6 +272,9 @@ class EnvConfig:
     """Fraction of a rollout's pushes survived at or above which the ceiling rises."""
     push_curriculum_lower: float = 0.7
     """Fraction of a rollout's pushes survived below which the ceiling falls."""
+    terrain_curriculum: TerrainCurriculumConfig | None = None
+    """A terrain curriculum (ours, :class:`TerrainCurriculumConfig`); None (the default): the terrain draw
+    above."""
     reward: RewardConfig = EVALUATION_REWARD
     """The reward trained on (:mod:`krl.task.reward`): in a config file a name of
     :data:`krl.task.reward.REWARDS` (``rp``: Table 4.8 + roll/pitch, agent-rp; ``base``: Table 4.8,
@@ -271,27 +356,126 @@ CORE_FEATURES: tuple[str, ...] = (
 q̇, CoM, pitch, roll)."""
 
 
+SCAN_REACH: float = 2.0
+"""Farthest a height-scan point may lie from the trunk along either heading axis [m]: the training fields'
+waypoints stay ``field_margin`` (2 m) inside their edges, so such a scan stays on the field."""
+
+
+@dataclass(frozen=True)
+class ScanConfig:
+    """The height scan's grid and scaling (the features ``height_scan`` and ``height_scan_clean``, ours,
+    docs/agent-perceptive.md). Points lie on a grid in the robot's heading frame (yaw-aligned, origin under
+    the trunk; x forward, y left), x-major: point ``i * len(y) + j`` is ``(x[i], y[j])``. The defaults are
+    legged_gym's rough-terrain grid: 1.6 m x 1.0 m at 0.1 m, 187 points."""
+
+    x_range: tuple[float, float] = (-0.8, 0.8)
+    """First and last x of the grid [m] (behind, ahead of the trunk)."""
+    half_width: float = 0.5
+    """The grid's y runs from -half_width to half_width [m] (symmetric, so the scan has a mirror)."""
+    spacing: float = 0.1
+    """Distance between neighbouring points along x and y [m]."""
+    offset: float = STANDING_HEIGHT
+    """Each value is ``trunk height - terrain height - offset`` [m]: 0 under a robot standing on level
+    ground, positive over a step down, negative over a step up."""
+    clip: float = 1.0
+    """Values are clipped to [-clip, clip] [m] (the observation normaliser scales them after)."""
+    noise: float = 0.0
+    """Training only: each value of the actor's ``height_scan`` gets a U(-noise, noise) [m] error, drawn
+    anew every step; evaluation and ``height_scan_clean`` are noise-free."""
+
+    def __post_init__(self) -> None:
+        _range("scan x_range", self.x_range, low=-SCAN_REACH)
+        for name in ("spacing", "clip"):
+            _positive(f"scan {name}", getattr(self, name))
+        for name in ("half_width", "noise", "offset"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise AgentConfigError(f"scan {name} must be a number >= 0, got {value!r}")
+        if max(abs(self.x_range[0]), abs(self.x_range[1]), self.half_width) > SCAN_REACH:
+            raise AgentConfigError(
+                f"the scan grid reaches beyond the terrain: its points must stay within {SCAN_REACH:g} m of "
+                f"the trunk (x_range {list(self.x_range)}, half_width {self.half_width:g})"
+            )
+        for name, span in (
+            ("x_range", self.x_range[1] - self.x_range[0]),
+            ("half_width", 2 * self.half_width),
+        ):
+            if abs(span / self.spacing - round(span / self.spacing)) > 1e-6:
+                raise AgentConfigError(
+                    f"scan {name} must span a whole number of spacings ({self.spacing:g} m), got {span:g} m"
+                )
+
+    @property
+    def x(self) -> tuple[float, ...]:
+        """The grid's x values [m], ascending."""
+        count = round((self.x_range[1] - self.x_range[0]) / self.spacing) + 1
+        return tuple(self.x_range[0] + self.spacing * k for k in range(count))
+
+    @property
+    def y(self) -> tuple[float, ...]:
+        """The grid's y values [m], ascending and symmetric about 0."""
+        count = round(2 * self.half_width / self.spacing) + 1
+        return tuple(-self.half_width + self.spacing * k for k in range(count))
+
+    @property
+    def size(self) -> int:
+        """Points of the grid."""
+        return len(self.x) * len(self.y)
+
+    def points(self) -> list[tuple[float, float]]:
+        """The grid's (x, y) points in the heading frame [m], x-major. Length: :attr:`size`."""
+        return [(x, y) for x in self.x for y in self.y]
+
+
 @dataclass(frozen=True)
 class ObservationConfig:
-    """Which features the policy observes (:mod:`krl.agent.observation` documents each)."""
+    """Which features the policy observes, and which more its critic sees (:mod:`krl.agent.observation`
+    documents each)."""
 
     features: tuple[str, ...] = (*CORE_FEATURES, "residual", "foot_contact")
     """Feature names in order: the thesis's final set (4.2.8.3): the core attributes, the previous
     filtered residual and the foot contacts. Optional: ``phase``, ``kernel_targets``, ``contact_force``
-    (Fig. 4.20), and for a policy that drives the kernel ``kernel_command``, ``heights``, ``clock_rate``."""
+    (Fig. 4.20), for a policy that drives the kernel ``kernel_command``, ``heights``, ``clock_rate``, and
+    the terrain around it ``height_scan`` (ours)."""
+    critic_features: tuple[str, ...] = ()
+    """Features only the critic (the value function) sees, after the actor's: the privileged ones
+    (``height_scan_clean``, ``ground_friction``, ``push_force``, ``terrain_level``) or any other. Empty (the
+    default): actor and critic see the same observation through shared layers (the thesis's network);
+    otherwise each has its own layers (:class:`krl.agent.network.PrivilegedCriticPolicy`), ours."""
+    scan: ScanConfig = field(default_factory=ScanConfig)
+    """The height scan's grid and scaling (read where ``height_scan`` or ``height_scan_clean`` is
+    observed)."""
 
     def __post_init__(self) -> None:
         from krl.agent.observation import FEATURES
 
-        unknown = [name for name in self.features if name not in FEATURES]
-        if unknown:
-            raise AgentConfigError(
-                f"unknown observation feature {unknown[0]!r}; known: {', '.join(FEATURES)}"
-            )
+        for role, names in (("observation", self.features), ("critic", self.critic_features)):
+            unknown = [name for name in names if name not in FEATURES]
+            if unknown:
+                raise AgentConfigError(f"unknown {role} feature {unknown[0]!r}; known: {', '.join(FEATURES)}")
         if len(set(self.features)) != len(self.features) or not self.features:
             raise AgentConfigError(
                 f"observation features must be distinct and not empty, got {self.features!r}"
             )
+        privileged = [name for name in self.features if FEATURES[name].privileged]
+        if privileged:
+            raise AgentConfigError(
+                f"observation feature {privileged[0]!r} is privileged (no robot measures it): give it to "
+                "critic_features"
+            )
+        both = self.features + self.critic_features
+        if len(set(both)) != len(both):
+            raise AgentConfigError(
+                f"critic_features must be distinct and not among the actor's features, got "
+                f"{list(self.critic_features)!r}"
+            )
+        if not isinstance(self.scan, ScanConfig):
+            raise AgentConfigError(f"scan must be a scan configuration, got {self.scan!r}")
+
+    @property
+    def all_features(self) -> tuple[str, ...]:
+        """The environment's observation: the actor's features, then the critic's own."""
+        return self.features + self.critic_features
 
 
 @dataclass(frozen=True)
@@ -470,6 +654,10 @@ def _from_mapping(cls: type, data: Any, where: str):
         sub = _SECTIONS.get(name) if cls is AgentConfig else None
         if sub is not None:
             values[name] = _from_mapping(sub, value, f"{where}.{name}")
+        elif _section_of(hints[name]) is not None:
+            values[name] = (
+                None if value is None else _from_mapping(_section_of(hints[name]), value, f"{where}.{name}")
+            )
         elif hints[name] is RewardConfig:
             try:
                 values[name] = RewardConfig.from_json(value)
@@ -483,6 +671,13 @@ def _from_mapping(cls: type, data: Any, where: str):
         raise AgentConfigError(f"{where}: {error}") from None
     except (TypeError, ValueError) as error:
         raise AgentConfigError(f"{where}: {error}") from None
+
+
+def _section_of(hint: Any) -> type | None:
+    """The settings dataclass a field holds (``ScanConfig``, ``TerrainCurriculumConfig``, alone or with
+    ``| None``), else None."""
+    kinds = typing.get_args(hint) if isinstance(hint, types.UnionType) else (hint,)
+    return next((k for k in kinds if dataclasses.is_dataclass(k) and k is not RewardConfig), None)
 
 
 def _typed(where: str, value: Any, hint: Any) -> Any:

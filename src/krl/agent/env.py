@@ -32,6 +32,8 @@ import numpy as np
 from krl.agent.config import AgentConfig
 from krl.agent.observation import observation_size, observation_table, observe
 from krl.agent.residual import ResidualController
+from krl.agent.sensing import Sensing
+from krl.agent.terrain_curriculum import difficulty, first_level, next_level, tile_terrain
 from krl.agent.vec_env import BatchVecEnv
 from krl.control.commands import CommandParams
 from krl.kernel.model import load_kernel
@@ -54,7 +56,12 @@ EPISODE_INFO_KEYS: tuple[str, ...] = (
     "terrain",
     "terms",
 )
-"""Keys of ``info["episode"]`` on an episode's last step (``r``, ``l``, ``t`` as SB3's Monitor)."""
+"""Keys of ``info["episode"]`` on an episode's last step (``r``, ``l``, ``t`` as SB3's Monitor), and with a
+terrain curriculum ``terrain_level``, the level the episode walked on."""
+
+SCAN_NOISE_STREAM: int = 0x5CA9
+"""Second word of the seed of the height scan's noise generator (``[seed of environment 0, this]``), so its
+draws never share a stream with the environments' own."""
 
 
 PUSH_VERDICT_TIME: float = 2.0
@@ -81,8 +88,13 @@ class ResidualEnvBatch:
         self.kernel_path = str(resolve_model(config.residual.kernel) if kernel_path is None else kernel_path)
         kernel = load_kernel(self.kernel_path)
         self.controller = ResidualController(kernel, config.residual, num_envs, rowwise=rowwise)
-        self.features = config.observation.features
-        self.observation_size = observation_size(self.features)
+        self.features = config.observation.all_features
+        """The observation's features: the actor's, then the critic's own."""
+        self.observation_size = observation_size(self.features, config.observation.scan)
+        self.sensing = Sensing(config.observation, np.random.default_rng([0, SCAN_NOISE_STREAM]))
+        self.curriculum = config.env.terrain_curriculum
+        self.levels = np.full(num_envs, -1, dtype=np.int64)
+        """Each environment's terrain curriculum level (-1: not drawn yet, or no curriculum)."""
         self.reward = config.env.reward
         self.command_params = replace(CommandParams(), d_min=config.env.d_min)
         env = config.env
@@ -114,6 +126,10 @@ class ResidualEnvBatch:
         """Reseed environment ``index``; its next reset draws a new terrain."""
         self.rngs[index] = np.random.default_rng(seed)
         self.needs_terrain[index] = True
+        if index == 0:
+            self.sensing.noise_rng = np.random.default_rng(
+                None if seed is None else [seed, SCAN_NOISE_STREAM]
+            )
 
     def _terrain(self, index: int):
         """A new terrain for environment ``index`` from its rng: a height field, stepped pyramids or Perlin
@@ -124,6 +140,13 @@ class ResidualEnvBatch:
         rng = self.rngs[index]
         env = self.config.env
         seed = int(rng.integers(2**31))
+        curriculum = env.terrain_curriculum
+        if curriculum is not None:
+            if self.levels[index] < 0:
+                self.levels[index] = first_level(curriculum, rng)
+            name, params = tile_terrain(curriculum, int(self.levels[index]), rng)
+            built, self.terrain_names[index] = _build_terrain(name, params, seed, rng, env.friction)
+            return built
         kind = rng.random()
         if kind < env.heightfield_probability:
             low, high = env.heightfield_max_height
@@ -133,11 +156,7 @@ class ResidualEnvBatch:
             name, params = "pyramids", {"step_height_low": low, "step_height_high": high}
         else:
             name, params = "perlin", {}
-        low, high = env.friction
-        params["friction"] = float(rng.uniform(low, high)) if low < high else low
-        built = build_model(name, params, seed)
-        mu = built.terrain.params.get("friction")
-        self.terrain_names[index] = f"{name}-{seed}" + ("" if mu is None else f"-mu{mu:.3f}")
+        built, self.terrain_names[index] = _build_terrain(name, params, seed, rng, env.friction)
         return built
 
     def reset(self, rows) -> np.ndarray:
@@ -195,8 +214,27 @@ class ResidualEnvBatch:
     # --- stepping ----------------------------------------------------------------------------------
 
     def _observe(self, rows: np.ndarray) -> np.ndarray:
-        inputs = self.controller.observation_inputs(self.states)
+        sensed = None
+        if self.sensing.needed:
+            shares = np.zeros(self.num_envs)
+            if self.curriculum is not None:
+                shares = np.array([difficulty(self.curriculum, max(int(level), 0)) for level in self.levels])
+            sensed = self.sensing.measure(self.sims, self.states, shares)
+        inputs = self.controller.observation_inputs(self.states, sensed)
         return observe(self.features, inputs)[rows]
+
+    def terrain_levels(self) -> np.ndarray:
+        """Each environment's terrain curriculum level (-1: none yet). Shape: (N,), int."""
+        return self.levels.copy()
+
+    def set_terrain_levels(self, levels) -> None:
+        """Put the environments on these curriculum levels (a resumed run's,
+        :mod:`krl.agent.terrain_curriculum`); each walks its next episode on a new terrain of its level."""
+        levels = np.asarray(levels, dtype=np.int64)
+        if levels.shape != (self.num_envs,):
+            raise ValueError(f"terrain levels must have shape ({self.num_envs},), got {levels.shape}")
+        self.levels[:] = levels
+        self.needs_terrain[:] = True
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[dict]]:
         """One control step of every environment.
@@ -238,7 +276,19 @@ class ResidualEnvBatch:
                 "terrain": self.terrain_names[index],
                 "terms": {name: float(sums[index]) for name, sums in self.episode_terms.items()},
             }
+            if self.curriculum is not None:
+                self._promote(index, infos[index]["episode"])
         return observations, rewards, terminated, truncated, infos
+
+    def _promote(self, index: int, episode: dict[str, Any]) -> None:
+        """Record the level environment ``index``'s episode was on, and move the level by its outcome; a
+        changed level brings a new terrain at the next reset."""
+        level = int(self.levels[index])
+        episode["terrain_level"] = level
+        new = next_level(self.curriculum, level, episode["targets_reached"], self.rngs[index])
+        if new != level:
+            self.levels[index] = new
+            self.needs_terrain[index] = True
 
     def _judge_pushes(self, times: np.ndarray, fallen: np.ndarray, infos: list[dict[str, Any]]) -> None:
         """``info["push_survived"]``: False where the robot fell within :data:`PUSH_VERDICT_TIME` of its
@@ -249,6 +299,19 @@ class ResidualEnvBatch:
         for index in np.flatnonzero(failed | survived):
             infos[index]["push_survived"] = bool(survived[index])
             self.push_watch[index] = np.nan
+
+
+def _build_terrain(
+    name: str, params: dict, seed: int, rng: np.random.Generator, friction: tuple[float, float]
+):
+    """Terrain ``name`` with ``params`` built from ``seed``, its ground friction μ ~ U(``friction``) drawn
+    from ``rng`` where that range is not one value; returns the built model and the terrain's name (with
+    μ where not 1)."""
+    low, high = friction
+    params["friction"] = float(rng.uniform(low, high)) if low < high else low
+    built = build_model(name, params, seed)
+    mu = built.terrain.params.get("friction")
+    return built, f"{name}-{seed}" + ("" if mu is None else f"-mu{mu:.3f}")
 
 
 class A1ResidualEnv(gym.Env):
@@ -269,7 +332,10 @@ class A1ResidualEnv(gym.Env):
 
     ## Observation space
     ``Box(-inf, inf, (D,), float32)``: the features of ``config.observation.features``, concatenated in that
-    order (the default, the thesis's final set, gives D = 54). Every feature:
+    order (the default, the thesis's final set, gives D = 54), then those of
+    ``config.observation.critic_features``, which only the critic reads (a privileged critic; the exported
+    policy takes the first part alone). Every feature (a height scan's size is its grid's,
+    ``config.observation.scan``):
 
     {observation_table}
 
@@ -422,6 +488,14 @@ class ResidualVecEnv(BatchVecEnv):
     def set_push_ceiling(self, newtons: float) -> None:
         """:meth:`ResidualEnvBatch.set_push_ceiling` of the batch."""
         self.batch.set_push_ceiling(newtons)
+
+    def terrain_levels(self) -> np.ndarray:
+        """:meth:`ResidualEnvBatch.terrain_levels` of the batch."""
+        return self.batch.terrain_levels()
+
+    def set_terrain_levels(self, levels) -> None:
+        """:meth:`ResidualEnvBatch.set_terrain_levels` of the batch."""
+        self.batch.set_terrain_levels(levels)
 
     def seed(self, seed: int | None = None):
         base = self._seed if seed is None else seed

@@ -10,8 +10,8 @@ The default set is the thesis's final one (4.2.8.3); the optional ones are those
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -35,6 +35,9 @@ class ObservationInputs:
     gait_inputs: np.ndarray
     """The driven command (or steering offset), step and ride heights [m] and clock rate of the coming step
     (:attr:`krl.agent.residual.ResidualController.gait_inputs`). Shape: (N, 6)."""
+    sensed: Mapping[str, np.ndarray] = field(default_factory=dict)
+    """The values of the :data:`SENSED` features the observation asks for, by name, measured in the scene
+    (:mod:`krl.agent.sensing`). Shape of each: (N, size)."""
 
 
 @dataclass(frozen=True)
@@ -49,10 +52,31 @@ class Feature:
     """What it is, in one line (frame and order of its numbers)."""
     compute: Callable[[ObservationInputs], np.ndarray]
     """``inputs -> (N, size)``."""
+    privileged: bool = False
+    """Only the critic may see it: no robot measures it (``ObservationConfig.critic_features``)."""
 
 
 def _flat(array: np.ndarray) -> np.ndarray:
     return array.reshape(len(array), -1)
+
+
+class MissingSensorError(ValueError):
+    """An observation asks for a sensed feature its caller did not measure."""
+
+
+def _sensed(name: str) -> Callable[[ObservationInputs], np.ndarray]:
+    def compute(inputs: ObservationInputs) -> np.ndarray:
+        if name not in inputs.sensed:
+            raise MissingSensorError(
+                f"observation feature {name!r} is measured in the scene, and this caller did not measure it"
+            )
+        return inputs.sensed[name]
+
+    return compute
+
+
+SCAN_SIZE = -1
+"""The :attr:`Feature.size` of the height scans: the configured grid's (:func:`feature_size`)."""
 
 
 FEATURES: dict[str, Feature] = {
@@ -115,38 +139,84 @@ FEATURES: dict[str, Feature] = {
     "clock_rate": Feature(
         1, "1", "the gait clock's rate of the coming step (driven, else 1)", lambda i: i.gait_inputs[:, 5:6]
     ),
+    "height_scan": Feature(
+        SCAN_SIZE,
+        "m",
+        "trunk height above the terrain, less the standing height, at the scan's heading-frame grid points "
+        "(``observation.scan``, x-major), clipped; noisy in training where ``scan.noise`` is set",
+        _sensed("height_scan"),
+    ),
+    "height_scan_clean": Feature(
+        SCAN_SIZE, "m", "the height scan without noise (privileged)", _sensed("height_scan_clean"), True
+    ),
+    "ground_friction": Feature(
+        1, "1", "sliding friction μ of the ground's terrain (privileged)", _sensed("ground_friction"), True
+    ),
+    "push_force": Feature(
+        3,
+        "N",
+        "the push acting on the trunk now, base frame; 0 between pushes (privileged)",
+        _sensed("push_force"),
+        True,
+    ),
+    "terrain_level": Feature(
+        1,
+        "1",
+        "the robot's terrain curriculum level / (levels - 1); 0 without a curriculum (privileged)",
+        _sensed("terrain_level"),
+        True,
+    ),
 }
 """Every observation feature, by name."""
 
+SENSED: tuple[str, ...] = (
+    "height_scan",
+    "height_scan_clean",
+    "ground_friction",
+    "push_force",
+    "terrain_level",
+)
+"""The features measured in the scene rather than read from the state and the controller
+(:class:`ObservationInputs.sensed`)."""
 
-def layout(features: Sequence[str]) -> list[dict[str, object]]:
-    """``[{"name", "start", "stop", "size", "unit"}, ...]`` of an observation of ``features``, in order."""
+
+def feature_size(name: str, scan=None) -> int:
+    """Numbers feature ``name`` adds: its :attr:`Feature.size`, or for a height scan the points of ``scan``
+    (a :class:`krl.agent.config.ScanConfig`, which a height scan needs: ValueError without it)."""
+    size = FEATURES[name].size
+    if size != SCAN_SIZE:
+        return size
+    if scan is None:
+        raise ValueError(f"the size of {name!r} is its scan grid's, and none was given")
+    return scan.size
+
+
+def layout(features: Sequence[str], scan=None) -> list[dict[str, object]]:
+    """``[{"name", "start", "stop", "size", "unit"}, ...]`` of an observation of ``features``, in order
+    (``scan``: the height scans' grid, :func:`feature_size`)."""
     rows, start = [], 0
     for name in features:
-        feature = FEATURES[name]
+        size = feature_size(name, scan)
         rows.append(
-            {
-                "name": name,
-                "start": start,
-                "stop": start + feature.size,
-                "size": feature.size,
-                "unit": feature.unit,
-            }
+            {"name": name, "start": start, "stop": start + size, "size": size, "unit": FEATURES[name].unit}
         )
-        start += feature.size
+        start += size
     return rows
 
 
 def observation_table() -> str:
     """Every feature of :data:`FEATURES` as a Markdown table: name, size, unit, what."""
     lines = ["| name | size | unit | what |", "| --- | --- | --- | --- |"]
-    lines += [f"| ``{n}`` | {f.size} | {f.unit} | {f.description} |" for n, f in FEATURES.items()]
+    lines += [
+        f"| ``{n}`` | {'grid' if f.size == SCAN_SIZE else f.size} | {f.unit} | {f.description} |"
+        for n, f in FEATURES.items()
+    ]
     return "\n".join(lines)
 
 
-def observation_size(features: Sequence[str]) -> int:
-    """Length of an observation of ``features``."""
-    return sum(FEATURES[name].size for name in features)
+def observation_size(features: Sequence[str], scan=None) -> int:
+    """Length of an observation of ``features`` (``scan``: the height scans' grid)."""
+    return sum(feature_size(name, scan) for name in features)
 
 
 def observe(features: Sequence[str], inputs: ObservationInputs) -> np.ndarray:

@@ -90,7 +90,7 @@ class Policy:
             "obs_clip": self.obs_clip,
             "obs_epsilon": self.obs_epsilon,
             **self.metadata,
-            "layout": layout(self.config.observation.features),
+            "layout": layout(self.config.observation.features, self.config.observation.scan),
         }
         arrays: dict[str, np.ndarray] = {"obs_mean": self.obs_mean, "obs_var": self.obs_var}
         for index, (weight, bias) in enumerate(self.layers):
@@ -151,8 +151,8 @@ def load_policy(path: str | Path, kernel_path: str | Path | None = None, check_k
 
 
 def _check(policy: Policy, header: dict[str, Any], path: Path) -> None:
-    expected = observation_size(policy.config.observation.features)
-    if header.get("layout") != layout(policy.config.observation.features):
+    expected = observation_size(policy.config.observation.features, policy.config.observation.scan)
+    if header.get("layout") != layout(policy.config.observation.features, policy.config.observation.scan):
         raise PolicyFileError(
             f"policy file {path}: its observation layout does not match its configured features"
         )

@@ -84,6 +84,10 @@ def _worker(
                 connection.send(env.seed(payload))
             elif command == "push_ceiling":
                 connection.send(env.set_push_ceiling(payload))
+            elif command == "terrain_levels":
+                connection.send(env.terrain_levels())
+            elif command == "set_terrain_levels":
+                connection.send(env.set_terrain_levels(payload))
             elif command == "close":
                 break
     except (EOFError, KeyboardInterrupt):
@@ -206,6 +210,21 @@ class ProcessVecEnv(BatchVecEnv):
         """Every worker's pushes from now on up to ``newtons`` [N] (a push curriculum's ceiling)."""
         for k in range(len(self._connections)):
             self._send(k, ("push_ceiling", float(newtons)))
+        self._gather()
+
+    def terrain_levels(self) -> np.ndarray:
+        """Every environment's terrain curriculum level, worker by worker. Shape: (workers * num_envs,)."""
+        for k in range(len(self._connections)):
+            self._send(k, ("terrain_levels", None))
+        return np.concatenate(self._gather())
+
+    def set_terrain_levels(self, levels) -> None:
+        """Put every environment on its level of ``levels`` (shape (workers * num_envs,))."""
+        levels = np.asarray(levels, dtype=np.int64)
+        if levels.shape != (self.num_envs,):
+            raise ValueError(f"terrain levels must have shape ({self.num_envs},), got {levels.shape}")
+        for k in range(len(self._connections)):
+            self._send(k, ("set_terrain_levels", levels[k * self.per_worker : (k + 1) * self.per_worker]))
         self._gather()
 
     def seed(self, seed: int | None = None):

@@ -19,6 +19,8 @@ The same object serves training (:mod:`krl.agent.env`), ``krl agent run`` and ``
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 from krl.agent.action import DRIVE_PARTS, action_parts
@@ -156,8 +158,11 @@ class ResidualController:
         targets = self.kernel.predict(features, self.rowwise)
         self.kernel_targets[rows] = targets.reshape(len(rows), NUM_LEGS, 3)
 
-    def observation_inputs(self, state: StateBatch) -> ObservationInputs:
-        """What the observation of the prepared step is computed from."""
+    def observation_inputs(
+        self, state: StateBatch, sensed: Mapping[str, np.ndarray] | None = None
+    ) -> ObservationInputs:
+        """What the observation of the prepared step is computed from; ``sensed``: the sensed features'
+        values (:mod:`krl.agent.sensing`), where the observation has any."""
         return ObservationInputs(
             state,
             self.command,
@@ -165,6 +170,7 @@ class ResidualController:
             self.normalised_phase,
             self.kernel_targets,
             self.gait_inputs,
+            {} if sensed is None else sensed,
         )
 
     def joint_targets(self, action: np.ndarray) -> np.ndarray:

@@ -17,6 +17,8 @@ roll, pitch                   (-roll, pitch)
 per-leg joint (ab, hip, kn)   legs swapped, abduction negated (its axis is the base x axis), hip and knee kept
 per-leg scalar                legs swapped: contacts, contact forces, gait phases
 heights, clock rate           unchanged
+height scan (x_i, y_j)        the value at (x_i, -y_j): the grid mirrored left-right
+friction, terrain level       unchanged; a push's force is a polar vector
 ============================= ==================================================================
 
 The gait phases swap with the legs: in a trot (FR with RL, FL with RR, half a period apart) the mirrored
@@ -119,8 +121,25 @@ FEATURE_MIRRORS: dict[str, SignedPermutation] = {
     "kernel_command": _signs(COMMAND),
     "heights": _signs((1.0, 1.0)),
     "clock_rate": _signs((1.0,)),
+    "ground_friction": _signs((1.0,)),
+    "push_force": _signs(POLAR),
+    "terrain_level": _signs((1.0,)),
 }
-"""The mirror of every observation feature of :data:`krl.agent.observation.FEATURES`, by name."""
+"""The mirror of every observation feature of :data:`krl.agent.observation.FEATURES` of a fixed size, by
+name; the height scans' depends on their grid (:func:`scan_mirror`)."""
+
+SCAN_FEATURES: tuple[str, ...] = ("height_scan", "height_scan_clean")
+"""The features whose mirror is :func:`scan_mirror`."""
+
+
+def scan_mirror(scan) -> SignedPermutation:
+    """The mirror of a height scan on the grid of ``scan`` (a :class:`krl.agent.config.ScanConfig`): point
+    ``(x_i, y_j)`` takes the value of ``(x_i, -y_j)``, the grid's y being symmetric; heights keep their
+    sign."""
+    ny = len(scan.y)
+    index = np.array([i * ny + (ny - 1 - j) for i in range(len(scan.x)) for j in range(ny)])
+    return SignedPermutation(index, np.ones(len(index)))
+
 
 ACTION_PART_MIRRORS: dict[str, SignedPermutation] = {
     "residual": _per_leg(POLAR),
@@ -134,12 +153,18 @@ numbers mirror the same way where its range is symmetric about its nominal value
 (:func:`action_mirror` checks)."""
 
 
-def observation_mirror(features: Sequence[str]) -> SignedPermutation:
-    """The mirror of an observation of ``features`` (in order); MirrorError for a feature it lacks."""
-    missing = [name for name in features if name not in FEATURE_MIRRORS]
+def observation_mirror(features: Sequence[str], scan=None) -> SignedPermutation:
+    """The mirror of an observation of ``features`` (in order; ``scan``: the height scans' grid, a
+    :class:`krl.agent.config.ScanConfig`, needed where they are observed); MirrorError for a feature it
+    lacks."""
+    missing = [name for name in features if name not in FEATURE_MIRRORS and name not in SCAN_FEATURES]
+    if scan is None and any(name in SCAN_FEATURES for name in features):
+        raise MirrorError("a height scan's mirror needs its grid (observation.scan)")
     if missing:
         raise MirrorError(f"no mirror for observation feature {missing[0]!r}")
-    return SignedPermutation.concatenate([FEATURE_MIRRORS[name] for name in features])
+    return SignedPermutation.concatenate(
+        [scan_mirror(scan) if name in SCAN_FEATURES else FEATURE_MIRRORS[name] for name in features]
+    )
 
 
 def action_mirror(parts) -> SignedPermutation:

@@ -47,7 +47,8 @@ from krl.agent.callbacks import Checkpointer, Clock, EpisodeLog, ProgressBar, St
 from krl.agent.checkpoint import Checkpoint, read_state
 from krl.agent.config import AgentConfig
 from krl.agent.curriculum import PushCurriculum, saved_ceiling
-from krl.agent.network import SharedExtractor
+from krl.agent.network import PrivilegedCriticPolicy, SharedExtractor, SplitExtractor
+from krl.agent.observation import observation_size
 from krl.agent.process_vec_env import ProcessVecEnv
 from krl.agent.run_folder import (
     TrainingError,
@@ -62,6 +63,7 @@ from krl.agent.run_folder import (
 )
 from krl.agent.symmetric_ppo import ppo_update
 from krl.agent.symmetry import MirrorError, SignedPermutation, action_mirror, observation_mirror
+from krl.agent.terrain_curriculum import TerrainCurriculumLog, saved_levels
 from krl.util.parallel import signals_raise
 
 RESUME_SEED_STRIDE = 7919
@@ -139,18 +141,32 @@ def mirrors(config: AgentConfig, kernel_path: str) -> tuple[SignedPermutation, S
 
     try:
         return (
-            observation_mirror(config.observation.features),
+            observation_mirror(config.observation.all_features, config.observation.scan),
             action_mirror(action_parts(config.residual, load_kernel(kernel_path))),
         )
     except MirrorError as error:
         raise TrainingError(f"symmetry {config.ppo.symmetry!r}: {error}") from None
 
 
+def _policy_class(config: AgentConfig) -> str | type:
+    """SB3's shared-layer MLP policy, or for a critic with features of its own
+    :class:`krl.agent.network.PrivilegedCriticPolicy`."""
+    return PrivilegedCriticPolicy if config.observation.critic_features else "MlpPolicy"
+
+
 def _policy_kwargs(config: AgentConfig) -> dict[str, Any]:
     ppo = config.ppo
+    extractor: dict[str, Any] = {"features_extractor_kwargs": {"hidden": list(ppo.shared)}}
+    if config.observation.critic_features:
+        actor_size = observation_size(config.observation.features, config.observation.scan)
+        extractor = {
+            "features_extractor_class": SplitExtractor,
+            "features_extractor_kwargs": {"hidden": list(ppo.shared), "actor_size": actor_size},
+        }
+    else:
+        extractor["features_extractor_class"] = SharedExtractor
     return {
-        "features_extractor_class": SharedExtractor,
-        "features_extractor_kwargs": {"hidden": list(ppo.shared)},
+        **extractor,
         "share_features_extractor": True,
         "net_arch": {"pi": list(ppo.actor), "vf": list(ppo.critic)},
         "activation_fn": torch.nn.Tanh,
@@ -231,11 +247,9 @@ def train(
         model.update_threads = update_threads
         _load_start(model, out, run, latest, start, done, log)
         model.set_logger(configure(str(out), ["csv", "tensorboard"]))
-        curriculum = _curriculum(config, venv, latest)
+        curricula = _curricula(config, venv, latest)
         run = record_sitting(out, run, done)
-        return _learn(
-            model, out, config, run, total, Clock(wall_before), progress, log, curriculum, callbacks
-        )
+        return _learn(model, out, config, run, total, Clock(wall_before), progress, log, curricula, callbacks)
     finally:
         venv.close()
 
@@ -264,14 +278,20 @@ def training_device(asked: str) -> str:
     return "cuda" if asked == "cuda" or (asked == "auto" and available) else "cpu"
 
 
-def _curriculum(config: AgentConfig, venv: ProcessVecEnv, latest: Path | None) -> PushCurriculum | None:
-    """The run's push curriculum (None without one), its ceiling set in ``venv``: the one ``latest``
-    saved, where a run resumes."""
-    if not config.env.push_curriculum:
-        return None
-    ceiling = saved_ceiling(latest, config.env)
-    venv.set_push_ceiling(ceiling)
-    return PushCurriculum(config.env, ceiling)
+def _curricula(config: AgentConfig, venv: ProcessVecEnv, latest: Path | None) -> list[BaseCallback]:
+    """The run's curricula: a push curriculum, its ceiling set in ``venv``, and a terrain curriculum's log,
+    the robots' levels set in ``venv``: the ones ``latest`` saved, where a run resumes."""
+    curricula: list[BaseCallback] = []
+    if config.env.push_curriculum:
+        ceiling = saved_ceiling(latest, config.env)
+        venv.set_push_ceiling(ceiling)
+        curricula.append(PushCurriculum(config.env, ceiling))
+    if config.env.terrain_curriculum is not None:
+        levels = saved_levels(latest)
+        if levels is not None:
+            venv.set_terrain_levels(levels)
+        curricula.append(TerrainCurriculumLog())
+    return curricula
 
 
 def _summary(out: Path, env_steps: int, wall_seconds: float) -> dict[str, Any]:
@@ -308,7 +328,7 @@ def _new_model(
         venv, norm_obs=ppo.normalize_observations, norm_reward=ppo.normalize_rewards, gamma=ppo.gamma
     )
     model = (ThreadedPPO if symmetric is None else SymmetricPPO)(
-        "MlpPolicy",
+        _policy_class(config),
         env,
         learning_rate=LearningRate(ppo, total),
         n_steps=max(1, ppo.rollout_steps // venv.num_envs),
@@ -367,14 +387,16 @@ def _learn(
     clock: Clock,
     progress: bool,
     log,
-    curriculum: PushCurriculum | None = None,
+    curricula: Sequence[BaseCallback] = (),
     callbacks: Sequence[BaseCallback] = (),
 ) -> dict[str, Any]:
-    """Train ``model`` to ``total`` env steps with the logging, (push ``curriculum``,) checkpointing and
-    progress callbacks; Ctrl-C or SIGTERM saves a checkpoint and re-raises. Returns the summary of
-    :func:`train`."""
-    curricula = [] if curriculum is None else [curriculum]
-    extra_state = dict if curriculum is None else curriculum.state
+    """Train ``model`` to ``total`` env steps with the logging, ``curricula`` (:func:`_curricula`),
+    checkpointing and progress callbacks; Ctrl-C or SIGTERM saves a checkpoint and re-raises. Returns the
+    summary of :func:`train`."""
+
+    def extra_state() -> dict[str, Any]:
+        return {key: value for curriculum in curricula for key, value in curriculum.state().items()}
+
     checkpointer = Checkpointer(out, config, run, clock, software(), extra_state)
     bar = ProgressBar(progress)
     try:

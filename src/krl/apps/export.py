@@ -187,12 +187,26 @@ def contract(
             "seed": policy.metadata.get("training", {}).get("seed"),
             "observation": [
                 {"name": r["name"], "start": r["start"], "stop": r["stop"], "unit": r["unit"]}
-                for r in layout(policy.config.observation.features)
+                for r in layout(policy.config.observation.features, policy.config.observation.scan)
             ],
             "action": _action_contract(policy.config.residual, kernel),
             "kernel_sha256": policy.metadata.get("kernel_sha256"),
         }
+        if "height_scan" in policy.config.observation.features:
+            document["policy"]["height_scan"] = _scan_contract(policy.config.observation.scan)
     return document
+
+
+def _scan_contract(scan) -> dict[str, Any]:
+    """How a robot measures ``height_scan`` (a :class:`krl.agent.config.ScanConfig`): the points, the value
+    of each and its clip."""
+    return {
+        "value": "trunk height - terrain height under the point - offset, clipped to [-clip, clip] [m]",
+        "frame": "heading frame: origin under the trunk, x forward, y left, turned with the trunk's yaw",
+        "points": [[round(x, 9), round(y, 9)] for x, y in scan.points()],
+        "offset": scan.offset,
+        "clip": scan.clip,
+    }
 
 
 def _action_contract(residual, kernel) -> dict[str, Any]:

@@ -118,7 +118,7 @@ def run_info(args: argparse.Namespace) -> int:
             "reward": reward_name(reward) or reward.to_json(),
             "observation": [
                 {"name": row["name"], "slice": f"{row['start']}:{row['stop']}", "unit": row["unit"]}
-                for row in layout(policy.config.observation.features)
+                for row in layout(policy.config.observation.features, policy.config.observation.scan)
             ],
             "action": action,
         },

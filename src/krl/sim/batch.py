@@ -41,6 +41,7 @@ from krl.robots.a1.constants import (
 )
 from krl.sim.model import BuiltModel
 from krl.sim.pushes import Push
+from krl.sim.scan import TerrainScanner, heading_points_to_world
 from krl.sim.state import FIELD_NAMES, RobotState, StateBatch, state_fields
 from krl.sim.terrains import Terrain
 from krl.util.timing import CONTROL_DT, SUBSTEPS
@@ -122,6 +123,8 @@ class _Robot:
         self.sensordata = self.data.sensordata
         self.actuator_force = self.data.actuator_force[:NUM_JOINTS]
         self.trunk_com = self.data.subtree_com[self.trunk]
+        self.scanner: TerrainScanner | None = None
+        """The terrain's height scanner, made on first use (:meth:`SimBatch.terrain_heights`)."""
 
     def readout_layout(self) -> tuple[int, int, tuple[list[int], list[int], int]]:
         """The first foot site and the first of the touch sensors in the model, and the feet's and the
@@ -361,6 +364,19 @@ class SimBatch:
         return state
 
     # --- all robots --------------------------------------------------------------------------------
+
+    def terrain_heights(self, points: np.ndarray) -> np.ndarray:
+        """Height of the terrain's surface [m] under heading-frame ``points`` [m] (shape (P, 2): x forward,
+        y left, origin under each robot's trunk, turned with its yaw), as each scene stands now: moving
+        props where they are (:mod:`krl.sim.scan`). Shape: (N, P)."""
+        states = self._states
+        heights = np.empty((len(self._robots), len(points)))
+        for index, robot in enumerate(self._robots):
+            if robot.scanner is None:
+                robot.scanner = TerrainScanner(robot.model, robot.terrain)
+            xy = heading_points_to_world(points, states.base_pos[index], states.rpy[index, 2])
+            heights[index] = robot.scanner.heights(robot.data, xy)
+        return heights
 
     @property
     def states(self) -> StateBatch:

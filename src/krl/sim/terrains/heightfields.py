@@ -20,13 +20,22 @@ from krl.sim.terrains.grid import HeightGrid, grid_axis, triangle_gradients
 from krl.sim.terrains.params import (
     HeightfieldParams,
     PerlinParams,
+    PitsParams,
     SinusoidParams,
     SlopeParams,
     sinusoid_half_size,
 )
 from krl.sim.terrains.terrain import Terrain
+from krl.sim.terrains.tiles import StepTiles
 
-__all__ = ["build_heightfield", "build_perlin", "build_sinusoid", "build_slope", "sinusoid_amplitude"]
+__all__ = [
+    "build_heightfield",
+    "build_perlin",
+    "build_pits",
+    "build_sinusoid",
+    "build_slope",
+    "sinusoid_amplitude",
+]
 
 _FLOOR_BELOW_HFIELD: float = 0.001
 """The floor plane of height-field terrains lies this far below the field's lowest vertex [m], so the two
@@ -221,3 +230,13 @@ def build_slope(spec: mujoco.MjSpec, name: str, p: SlopeParams, rng: np.random.G
         }
     )
     return dataclasses.replace(terrain, landmarks=landmarks)
+
+
+def build_pits(spec: mujoco.MjSpec, name: str, p: PitsParams, rng: np.random.Generator) -> Terrain:
+    """Add the field of stepped pits: the pyramids' tiles (:class:`krl.sim.terrains.tiles.StepTiles`, the
+    same draws) with every level going down instead of up, as one height field at ``p.cell``; the lanes and
+    the spawn point (a crossing of lanes at the origin) at z = 0."""
+    tiles = StepTiles.draw(p, rng)
+    axis = grid_axis(tiles.half, p.cell)
+    x, y = np.meshgrid(axis, axis)
+    return _grid_terrain(spec, name, dataclasses.replace(p, half_size=tiles.half), axis, -tiles.height(x, y))

@@ -29,6 +29,7 @@ __all__ = [
     "GroundParams",
     "HeightfieldParams",
     "PerlinParams",
+    "PitsParams",
     "PyramidsParams",
     "SeesawParams",
     "SinusoidParams",
@@ -49,6 +50,7 @@ TERRAIN_NAMES: tuple[str, ...] = (
     "slope",
     "stairs",
     "pyramids",
+    "pits",
     "tabletop",
     "seesaw",
 )
@@ -268,6 +270,18 @@ class PyramidsParams(GroundParams):
                 "(tile - lane - 2 (max_levels - 1) tread_high >= tread_high)"
             )
         return None
+
+
+@dataclass(frozen=True)
+class PitsParams(PyramidsParams):
+    """A field of stepped pits, a training ground of ours (docs/terrains.md): the pyramids' tiles, each a
+    pit of concentric square levels going down (a pyramid upside down), as a height field."""
+
+    cell: float = _p(0.04, gt=0.0, le=1.0)
+    """Vertex spacing of the height field [m]: a riser is a wall one cell wide."""
+
+    def _problem(self) -> str | None:
+        return super()._problem() or _grid_problem(self.half_size, self.cell)
 
 
 @dataclass(frozen=True)

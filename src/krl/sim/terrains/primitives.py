@@ -16,6 +16,7 @@ import numpy as np
 from krl.sim.terrains.geoms import add_floor, add_geom, spec_angle
 from krl.sim.terrains.params import FlatParams, PyramidsParams, SeesawParams, StairsParams, TabletopParams
 from krl.sim.terrains.terrain import Terrain
+from krl.sim.terrains.tiles import StepTiles
 
 __all__ = ["build_flat", "build_pyramids", "build_seesaw", "build_stairs", "build_tabletop"]
 
@@ -96,41 +97,25 @@ def build_pyramids(spec: mujoco.MjSpec, name: str, p: PyramidsParams, rng: np.ra
     ~ uniform on 1 ... max_levels.
     """
     floor = add_floor(spec)
-    per_side = 2 * math.ceil(p.half_size / p.tile - 1e-9)
-    centres = (np.arange(per_side) - 0.5 * (per_side - 1)) * p.tile
-    base = p.tile - p.lane
-    riser = np.empty((per_side, per_side))
-    tread = np.empty((per_side, per_side))
-    levels = np.empty((per_side, per_side), dtype=np.int64)
+    tiles = StepTiles.draw(p, rng)
     names = [floor]
-    for row in range(per_side):
-        for col in range(per_side):
-            riser[row, col] = rng.uniform(p.step_height_low, p.step_height_high)
-            tread[row, col] = rng.uniform(p.tread_low, p.tread_high)
-            levels[row, col] = rng.integers(1, p.max_levels + 1)
-            for k in range(1, levels[row, col] + 1):
-                half_side = 0.5 * base - (k - 1) * tread[row, col]
-                top = k * riser[row, col]
+    for row in range(tiles.per_side):
+        for col in range(tiles.per_side):
+            for k in range(1, tiles.levels[row, col] + 1):
+                half_side = 0.5 * tiles.base - (k - 1) * tiles.tread[row, col]
+                top = k * tiles.riser[row, col]
                 gname = f"pyramid_{row}_{col}_{k}"
                 add_geom(
                     spec.worldbody,
                     gname,
                     mujoco.mjtGeom.mjGEOM_BOX,
                     "krl_steps" if k % 2 == 1 else "krl_steps_alt",
-                    pos=[centres[col], centres[row], 0.5 * top],
+                    pos=[tiles.centres[col], tiles.centres[row], 0.5 * top],
                     size=[half_side, half_side, 0.5 * top],
                 )
                 names.append(gname)
-    half = 0.5 * per_side * p.tile
-
-    def height(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        col = np.clip(np.floor((x + half) / p.tile).astype(np.int64), 0, per_side - 1)
-        row = np.clip(np.floor((y + half) / p.tile).astype(np.int64), 0, per_side - 1)
-        # Chebyshev distance from the tile's centre, then the levels whose square still covers the point.
-        inset = 0.5 * base - np.maximum(np.abs(x - centres[col]), np.abs(y - centres[row]))
-        level = np.where(inset >= 0.0, np.floor(inset / tread[row, col]) + 1, 0)
-        level = np.minimum(level, levels[row, col])
-        return np.where(np.maximum(np.abs(x), np.abs(y)) <= half, level * riser[row, col], 0.0)
+    half = tiles.half
+    height = tiles.height
 
     return Terrain(
         name=name,
@@ -188,6 +173,7 @@ def build_tabletop(spec: mujoco.MjSpec, name: str, p: TabletopParams, rng: np.ra
         geom_names=(floor, "tabletop_post", "tabletop_plate"),
         landmarks={"pivot": (0.0, 0.0), "corner_min": (-half, -half), "corner_max": (half, half)},
         _height_fn=height,
+        _ground_fn=_floor_only,
     )
 
 
@@ -249,4 +235,11 @@ def build_seesaw(spec: mujoco.MjSpec, name: str, p: SeesawParams, rng: np.random
         geom_names=(floor, "seesaw_support", "seesaw_plank"),
         landmarks={"pivot": (0.0, 0.0), "low_end": (low_end_x, 0.0), "high_end": (high_end_x, 0.0)},
         _height_fn=height,
+        _ground_fn=_floor_only,
     )
+
+
+def _floor_only(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The fixed ground of a prop terrain: the floor at z = 0 [m] (the prop's support stands under the prop
+    at every tilt, so no downward ray reaches it)."""
+    return np.zeros(np.shape(x))

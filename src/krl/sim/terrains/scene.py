@@ -17,13 +17,20 @@ import numpy as np
 
 from krl.robots.a1.constants import FOOT_FRICTION
 from krl.sim.terrains.geoms import set_ground_friction
-from krl.sim.terrains.heightfields import build_heightfield, build_perlin, build_sinusoid, build_slope
+from krl.sim.terrains.heightfields import (
+    build_heightfield,
+    build_perlin,
+    build_pits,
+    build_sinusoid,
+    build_slope,
+)
 from krl.sim.terrains.params import (
     HEIGHTFIELD_MILD_MAX_HEIGHT,
     TERRAIN_NAMES,
     FlatParams,
     HeightfieldParams,
     PerlinParams,
+    PitsParams,
     PyramidsParams,
     SeesawParams,
     SinusoidParams,
@@ -104,6 +111,7 @@ def _registry(name: str) -> tuple[type, dict[str, Any], Callable[..., Terrain]]:
         "slope": (SlopeParams, {}, build_slope),
         "stairs": (StairsParams, {}, build_stairs),
         "pyramids": (PyramidsParams, {}, build_pyramids),
+        "pits": (PitsParams, {}, build_pits),
         "tabletop": (TabletopParams, {}, build_tabletop),
         "seesaw": (SeesawParams, {}, build_seesaw),
     }

@@ -40,6 +40,8 @@ class Terrain:
     grid: HeightGrid | None = field(default=None, repr=False)
     """The height field, for the height-field terrains; None otherwise."""
     _height_fn: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = field(default=None, repr=False)
+    _ground_fn: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = field(default=None, repr=False)
+    """The surface without the moving props (None: :attr:`_height_fn`, a terrain without props)."""
 
     def height(self, x: Any, y: Any) -> np.ndarray:
         """Height of the terrain surface at rest at world (x, y) [m], vectorised (x and y broadcast).
@@ -50,6 +52,15 @@ class Terrain:
         x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
         assert self._height_fn is not None
         return self._height_fn(x, y)
+
+    def ground_height(self, x: Any, y: Any) -> np.ndarray:
+        """Height of the fixed ground at world (x, y) [m], without the moving props (the table-top's plate,
+        the seesaw's plank), vectorised (x and y broadcast); :meth:`height` for a terrain without props.
+        :class:`krl.sim.scan.TerrainScanner` adds the props where they are at each step."""
+        if self._ground_fn is None:
+            return self.height(x, y)
+        x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
+        return self._ground_fn(x, y)
 
     @property
     def max_slope(self) -> float | None:
