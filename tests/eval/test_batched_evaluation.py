@@ -75,3 +75,43 @@ def test_jobs_batch_consecutive_runs_of_one_controller_and_seed(tmp_path):
     assert [len(job) for job in jobs] == [half, half, half, 2 * BATCH_RUNS + 3 - 3 * half, 1, 1, 1, 1, 1]
     assert [index for job in jobs for index in job] == list(range(len(runs)))
     assert [len(job) for job in batch_jobs(runs[:8], workers=2)] == [4, 4]  # a job for each worker
+
+
+SEESAW_COURSE = """
+format = 1
+name = "seesaw-short"
+time_limit = 2.0
+d_min = 0.5
+waypoints = [[0.0, 0.0]]
+starts = [[-1.6, 0.0, 0.0], [-1.5, 0.2, 0.1]]
+
+[terrain]
+name = "seesaw"
+"""
+"""The seesaw, a moving prop under the scan, briefly."""
+
+
+def test_a_policy_that_scans_the_ground_makes_the_same_records_batched_and_alone(tmp_path, monkeypatch):
+    from dataclasses import replace
+
+    from agent_fakes import make_policy
+
+    from krl.agent.config import AgentConfig, ScanConfig
+
+    config = AgentConfig()
+    observation = replace(
+        config.observation, features=(*config.observation.features, "height_scan"), scan=ScanConfig(noise=0.1)
+    )
+    path = make_policy(replace(config, observation=observation), scale=0.05, seed=2).save(
+        tmp_path / "scan.npz"
+    )
+    course = tmp_path / "seesaw-short.toml"
+    course.write_text(SEESAW_COURSE)
+    rough = tmp_path / "rough-short.toml"
+    rough.write_text(HEIGHTFIELD_COURSE)
+    spec = parse_controller(f"agent:{path}")
+    tasks = course_tasks(spec, [load_course(str(course)), load_course(str(rough))], spec.seeds)
+    monkeypatch.setattr(batch, "BATCH_SLOTS", 2)
+    batched = run_batch(tasks)
+    alone = [run_task(task) for task in tasks]
+    assert [without_wall_time(r) for r in batched] == [without_wall_time(r) for r in alone]

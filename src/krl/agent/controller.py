@@ -13,6 +13,7 @@ from krl.agent.config import ResidualConfig
 from krl.agent.observation import observe
 from krl.agent.policy import Policy, check_kernel_file
 from krl.agent.residual import ResidualController
+from krl.agent.sensing import Sensing
 from krl.control.types import JointCommand
 from krl.kernel.model import Kernel, load_kernel
 from krl.sim.state import RobotState, StateBatch
@@ -31,8 +32,14 @@ class AgentController:
         path = check_kernel_file(policy, kernel_path, "policy")
         self.residual = ResidualController(load_kernel(path), policy.config.residual, 1)
         self.features = policy.config.observation.features
+        self.senses = _SceneSenses(policy)
         self.last_action = np.zeros(policy.config.residual.action_size)
         """The policy's last action, in [-1, 1]. Shape: (D,) (:mod:`krl.agent.action`)."""
+
+    def attach(self, sims) -> None:
+        """The simulator (a batch of one) whose scene the policy's height scan reads
+        (:func:`krl.control.types.attach_scene`)."""
+        self.senses.sims = sims
 
     def reset(self, state: RobotState) -> None:
         self.residual.reset()
@@ -40,7 +47,8 @@ class AgentController:
     def act(self, state: RobotState, command: np.ndarray) -> JointCommand:
         states = StateBatch.from_states([state])
         self.residual.prepare(states, np.asarray(command, dtype=float)[None])
-        observation = observe(self.features, self.residual.observation_inputs(states))
+        inputs = self.residual.observation_inputs(states, self.senses.measure(states))
+        observation = observe(self.features, inputs)
         action = self.policy.act(observation)
         self.last_action = action[0]
         return JointCommand(self.residual.joint_targets(action)[0])
@@ -68,6 +76,12 @@ class AgentBatchController:
         kernel = load_kernel(path)
         self.residual = ResidualController(kernel, policy.config.residual, num_robots, rowwise=True)
         self.features = policy.config.observation.features
+        self.senses = _SceneSenses(policy)
+
+    def attach(self, sims) -> None:
+        """The simulators whose scenes the policy's height scan reads
+        (:func:`krl.control.types.attach_scene`)."""
+        self.senses.sims = sims
 
     def reset(self, index: int, state: RobotState) -> None:
         """Start robot ``index``'s new run (from ``state``)."""
@@ -81,10 +95,30 @@ class AgentBatchController:
         zero actions on their last kernel targets, and are reset before they walk again). No robot fails:
         the second item is empty."""
         _prepare_walking(self.residual, states, commands, rows)
-        observation = observe(self.features, self.residual.observation_inputs(states))
+        inputs = self.residual.observation_inputs(states, self.senses.measure(states))
+        observation = observe(self.features, inputs)
         action = np.zeros((len(commands), self.residual.config.action_size))
         action[rows] = self.policy.act(observation[rows], rowwise=True)
         return JointCommand(self.residual.joint_targets(action)), {}
+
+
+class _SceneSenses:
+    """What a policy observes of the scene (a height scan), noise-free, from the simulators it is attached to;
+    nothing for a blind policy."""
+
+    def __init__(self, policy: Policy) -> None:
+        self.sensing = Sensing(policy.config.observation)
+        self.sims = None
+
+    def measure(self, states: StateBatch) -> dict[str, np.ndarray] | None:
+        if not self.sensing.needed:
+            return None
+        if self.sims is None:
+            raise RuntimeError(
+                f"the policy observes {', '.join(self.sensing.names)} and has no simulator to read it from "
+                "(krl.control.types.attach_scene)"
+            )
+        return self.sensing.measure(self.sims, states)
 
 
 class KernelBatchController:

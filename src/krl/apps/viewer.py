@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from krl.control.commands import CommandParams
-from krl.control.types import JointCommand
+from krl.control.types import JointCommand, attach_scene
 from krl.robots.a1.constants import STANDING_JOINT_ANGLES
 from krl.sim.pushes import scripted_push
 from krl.sim.render import CameraView, aim_camera
@@ -68,6 +68,7 @@ class LiveSession:
     ) -> None:
         self.sim = sim
         self.controller = controller
+        attach_scene(controller, sim.batch)
         self.waypoints = np.asarray(waypoints, dtype=float).reshape(-1, 2)
         self.start = start
         self.params = CommandParams(d_min=d_min)

@@ -21,6 +21,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from krl.control.commands import CommandParams
+from krl.control.types import attach_scene
 from krl.eval.episodes import EpisodeScorer, push_attempt_metrics
 from krl.sim.batch import SimBatch
 from krl.sim.model import BuiltModel, build_model
@@ -97,6 +98,7 @@ def run_batch(tasks: Sequence) -> list[dict[str, Any]]:
     sims = SimBatch([walks[0].built] * slots)
     episodes = EpisodeBatch(sims, EVALUATION_REWARD)
     controller = spec.build_batch(seed, slots)
+    attach_scene(controller, sims)
     waiting = deque(range(len(tasks)))
     running: list[_Run | None] = [None] * slots
     metrics: list[dict[str, Any] | None] = [None] * len(tasks)

@@ -20,7 +20,7 @@ import numpy as np
 
 from krl.control.commands import CommandGenerator, CommandParams
 from krl.control.frames import realised_velocity
-from krl.control.types import Controller, JointCommand
+from krl.control.types import Controller, JointCommand, attach_scene
 from krl.sim.robot import A1Sim, RobotState
 from krl.task.episode import EpisodeBatch, EpisodeStep, PushEvents, RobotTask
 from krl.task.reward import EVALUATION_REWARD, RewardConfig
@@ -130,6 +130,7 @@ class Runner:
         self.episodes = EpisodeBatch(sim.batch, reward)
         """The episode loop over the simulator's batch of one."""
         self.controller = controller
+        attach_scene(controller, sim.batch)
         self.command_params = command_params or CommandParams()
         self.on_step = on_step
         self.on_target = on_target
