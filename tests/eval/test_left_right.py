@@ -65,7 +65,7 @@ def test_left_minus_right_per_force_band_and_controller():
 
 def test_the_report_writes_the_left_right_table_after_the_direction_tables(tmp_path):
     records = [record(90, True, directions="balanced"), record(-90, False, directions="balanced")]
-    parts, written, _, _ = sweep_report.write_sweep_sections({"x": {evaluate.PUSH_DIR: records}}, tmp_path)
+    parts, written, _, _, _ = sweep_report.write_sweep_sections({"x": {evaluate.PUSH_DIR: records}}, tmp_path)
     text = "\n".join(parts)
     assert text.index("### Push success by direction") < text.index("### Left minus right")
     assert "| x (balanced) | +1.00 (1/1 - 0/1), " in text

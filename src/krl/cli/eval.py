@@ -54,6 +54,14 @@ def _frictions(text: str) -> tuple[float, ...]:
     return values
 
 
+def _risers(text: str) -> tuple[float, ...]:
+    """``4,6,8`` -> riser heights [m] of the stair sweep, given in centimetres."""
+    try:
+        return tuple(round(float(part) / 100.0, 6) for part in text.split(","))
+    except ValueError:
+        raise ValueError(f"--risers expects a comma list of riser heights in cm, got {text!r}") from None
+
+
 def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
     """``krl evaluate``'s options: what to score, the sweeps, where results and videos go."""
     parser.add_argument(
@@ -77,6 +85,20 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
     )
     _add_push_arguments(parser)
     _add_friction_arguments(parser)
+    parser.add_argument(
+        "--stair-sweep",
+        action="store_true",
+        help="run the stair sweep: flights up and down of each riser height from 4 starts each "
+        "(krl.eval.stair_sweep)",
+    )
+    from krl.eval.stair_sweep import STAIR_SWEEP_RISERS
+
+    parser.add_argument(
+        "--risers",
+        metavar="LIST",
+        help="stair sweep's riser heights in cm, a comma list "
+        f"(default {','.join(f'{riser * 100:g}' for riser in STAIR_SWEEP_RISERS)})",
+    )
     _add_output_arguments(parser)
 
 
@@ -187,14 +209,20 @@ def evaluation_from_args(args: argparse.Namespace):
     from krl.eval.controllers import distinct_controllers, parse_controller
     from krl.eval.courses import courses_named
     from krl.eval.evaluate import Evaluation
+    from krl.eval.stair_sweep import StairSweep
 
-    names = args.course if args.course or args.push_sweep or args.friction_sweep else ["thesis"]
+    sweeps = args.push_sweep or args.friction_sweep or args.stair_sweep
+    names = args.course if args.course or sweeps else ["thesis"]
+    stairs = None
+    if args.stair_sweep:
+        stairs = StairSweep() if args.risers is None else StairSweep(_risers(args.risers))
     return Evaluation(
         controllers=tuple(distinct_controllers([parse_controller(text) for text in args.controller])),
         courses=tuple(courses_named(names or [])),
         out=Path(args.out),
         push=push_sweep_from_args(args) if args.push_sweep else None,
         friction=friction_sweep_from_args(args) if args.friction_sweep else None,
+        stairs=stairs,
         seeds=None if args.seeds is None else tuple(parse_ints(args.seeds, "--seeds")),
         video=Path(args.video) if args.video else None,
         video_all=args.video_all,

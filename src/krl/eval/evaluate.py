@@ -31,6 +31,7 @@ from krl.eval.controllers import ControllerSpec
 from krl.eval.courses import Course
 from krl.eval.episodes import FrictionSweep, PushSweep, score_push_attempt, score_walk
 from krl.eval.records import EvaluationError, RecordWriter, read_runs, remove_leftovers
+from krl.eval.stair_sweep import StairSweep, trained_risers
 from krl.util.machine import machine
 from krl.util.output import write_atomic
 from krl.util.parallel import run_jobs
@@ -45,6 +46,8 @@ PUSH_DIR = "push"
 
 FRICTION_DIR = "friction"
 """Subdirectory of a controller's results that holds the friction sweep."""
+STAIR_DIR = "stair-sweep"
+"""Subdirectory of a controller's results that holds the stair sweep."""
 
 
 BATCH_RUNS = 128
@@ -74,6 +77,9 @@ class Task:
     attempt: int = 0
     friction: float | None = None
     """The ground friction μ [-] of a friction sweep's run (``course`` is then the course at that μ)."""
+    stair: dict[str, Any] | None = None
+    """A stair sweep's run (``course`` is then its flight): ``riser`` [m], ``direction`` (up or down) and
+    ``trained_risers`` (:func:`krl.eval.stair_sweep.trained_risers`)."""
     video: str | None = None
     """Write an MP4 of the run here."""
 
@@ -95,6 +101,8 @@ class Task:
             )
             if self.friction is not None:
                 identity["friction"] = self.friction
+            if self.stair is not None:
+                identity["stair"] = dict(self.stair)
         return identity
 
     def record(self, metrics: dict[str, Any]) -> dict[str, Any]:
@@ -190,6 +198,24 @@ def friction_tasks(
             tasks.append(
                 Task(f"{FRICTION_DIR}/{name}", spec, at_mu, start, seed, friction=friction, video=video)
             )
+    return tasks
+
+
+def stair_tasks(
+    spec: ControllerSpec, sweep: StairSweep, seeds: Sequence[int] | None = None, video_dir: Path | None = None
+) -> list[Task]:
+    """Every (riser, direction, start[, seed]) run of the stair sweep, seeds as :func:`run_seeds`; a video of
+    each flight's first run if asked."""
+    tasks = []
+    seeds_run = run_seeds(spec, seeds)
+    trained = {seed: trained_risers(spec, seed) for seed in seeds_run}
+    for riser, direction, course in sweep.courses():
+        for start, seed in itertools.product(range(len(course.starts)), seeds_run):
+            name = f"{course.name}-start{start}" + ("" if seed is None else f"-seed{seed}")
+            first = start == 0 and seed == seeds_run[0]
+            video = str(video_dir / spec.label / f"{name}.mp4") if video_dir and first else None
+            stair = {"riser": riser, "direction": direction, "trained_risers": trained[seed]}
+            tasks.append(Task(f"{STAIR_DIR}/{name}", spec, course, start, seed, stair=stair, video=video))
     return tasks
 
 
@@ -387,7 +413,8 @@ def execute(
 @dataclass(frozen=True)
 class Evaluation:
     """What one ``krl evaluate`` call scores: every controller of ``controllers`` on each course of
-    ``courses``, on the push sweep ``push`` and the friction sweep ``friction`` where given, with results in
+    ``courses``, on the push sweep ``push``, the friction sweep ``friction`` and the stair sweep ``stairs``
+    where given, with results in
     ``out``. ``seeds``: the training seeds of seed groups to score (None: all a group holds); ``video``: a
     folder for MP4s of each course's first run (every run with ``video_all``); ``command``: the command line
     remembered in each controller's ``commands.txt`` (None: nothing remembered)."""
@@ -397,6 +424,7 @@ class Evaluation:
     out: Path
     push: PushSweep | None = None
     friction: FrictionSweep | None = None
+    stairs: StairSweep | None = None
     seeds: tuple[int, ...] | None = None
     video: Path | None = None
     video_all: bool = False
@@ -413,6 +441,8 @@ class Evaluation:
                 tasks += push_tasks(spec, self.push, self.seeds, self.video)
             if self.friction is not None:
                 tasks += friction_tasks(spec, self.friction, friction_courses, self.seeds, self.video)
+            if self.stairs is not None:
+                tasks += stair_tasks(spec, self.stairs, self.seeds, self.video)
         return tasks
 
 
@@ -446,6 +476,7 @@ def run_evaluation(
             spec.seeded,
             evaluation.push is not None,
             evaluation.friction is not None,
+            evaluation.stairs is not None,
         )
         for spec in evaluation.controllers
     }

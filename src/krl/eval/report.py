@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from krl.eval.courses import THESIS_COURSES
-from krl.eval.evaluate import FRICTION_DIR, PUSH_DIR
+from krl.eval.evaluate import FRICTION_DIR, PUSH_DIR, STAIR_DIR
 from krl.eval.records import labels_in, read_runs
 from krl.eval.summaries import summarise_course, summarise_course_by_seed
 from krl.eval.sweep_report import write_sweep_sections
@@ -196,7 +196,7 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
     """Write the tables and plots; returns what was written and the summary rows."""
     found = collect(results, controllers)
     course_names = [c for c in THESIS_COURSES if any(c in g for g in found.values())]
-    sweeps = {PUSH_DIR, FRICTION_DIR}
+    sweeps = {PUSH_DIR, FRICTION_DIR, STAIR_DIR}
     course_names += sorted({c for g in found.values() for c in g} - set(THESIS_COURSES) - sweeps)
     tables = {course: course_rows(found, course) for course in course_names}
     if not tables and not any(sweeps & set(groups) for groups in found.values()):
@@ -231,7 +231,7 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
             path = out / f"course-{course}-seeds.csv"
             write_atomic(path, rows_csv(by_seed))
             written.append(str(path))
-    sweep_parts, sweep_written, pushes, frictions = write_sweep_sections(found, out)
+    sweep_parts, sweep_written, pushes, frictions, stairs = write_sweep_sections(found, out)
     parts += sweep_parts
     written += sweep_written
     if tables:
@@ -242,4 +242,4 @@ def write_report(results: Path, out: Path, controllers: Sequence[str] | None, co
     write_atomic(markdown, "\n".join(parts))
     written.insert(0, str(markdown))
     ours = [r for r in pushes if r["source"] == "krl"]
-    return {"written": written, "courses": tables, "push": ours, "friction": frictions}
+    return {"written": written, "courses": tables, "push": ours, "friction": frictions, "stair_sweep": stairs}

@@ -291,30 +291,60 @@ def summarise_friction(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]
     for record in records:
         groups.setdefault((record["course"], float(record["friction"])), []).append(record)
     courses = list(dict.fromkeys(course for course, _ in groups))
-    rows = []
-    for course, friction in sorted(groups, key=lambda key: (courses.index(key[0]), -key[1])):
-        group = groups[(course, friction)]
-        success = _success(group)
-        row = {
-            "course": course,
-            "friction": friction,
-            "runs": success.pop("attempts"),
-            **success,
-            "fall_rate": sum(_counts_as_fall(r["metrics"]) for r in group) / len(group),
-            "targets_reached_mean": statistics.fmean(r["metrics"]["targets_reached"] for r in group),
-        }
-        seeds = by_seed(group)
-        if len(seeds) > 1:
-            rates = [_success(runs)["success_rate"] for runs in seeds.values()]
-            row.update(seeds=len(seeds), success_rate_seed_std=_mean_std(rates)[1])
-        rows.append(row)
-    return rows
+    order = sorted(groups, key=lambda key: (courses.index(key[0]), -key[1]))
+    return [{"course": course, "friction": mu, **_runs_row(groups[course, mu])} for course, mu in order]
+
+
+def _runs_row(group: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """A sweep row's figures over ``group``'s runs: runs, success rate with its 95 % interval, fall rate
+    (errors count as falls), waypoints reached (mean); for several training seeds pooled also ``seeds`` and
+    ``success_rate_seed_std``, the sample std of the seeds' rates."""
+    success = _success(group)
+    row = {
+        "runs": success.pop("attempts"),
+        **success,
+        "fall_rate": sum(_counts_as_fall(r["metrics"]) for r in group) / len(group),
+        "targets_reached_mean": statistics.fmean(r["metrics"]["targets_reached"] for r in group),
+    }
+    seeds = by_seed(group)
+    if len(seeds) > 1:
+        rates = [_success(runs)["success_rate"] for runs in seeds.values()]
+        row.update(seeds=len(seeds), success_rate_seed_std=_mean_std(rates)[1])
+    return row
 
 
 def summarise_friction_by_seed(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     """:func:`summarise_friction` of each training seed's runs, each row with its ``seed``."""
     return [
         {"seed": seed, **row} for seed, runs in by_seed(records).items() for row in summarise_friction(runs)
+    ]
+
+
+def summarise_stairs(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per (riser, direction) of the stair sweep, risers rising, up before down: ``riser`` [m],
+    ``direction``, ``trained_risers`` (the policy's training range [m], or None), ``in_training`` (whether
+    the riser lies in it; None without one), and :func:`_runs_row`'s figures. Seeds pooled as
+    :func:`summarise_friction`'s."""
+    groups: dict[tuple[float, str], list[dict[str, Any]]] = {}
+    for record in records:
+        groups.setdefault((float(record["stair"]["riser"]), record["stair"]["direction"]), []).append(record)
+    rows = []
+    for riser, direction in sorted(groups, key=lambda key: (key[0], key[1] != "up")):
+        group = groups[riser, direction]
+        ranges = [r["stair"]["trained_risers"] for r in group if r["stair"]["trained_risers"] is not None]
+        trained = [min(low for low, _ in ranges), max(high for _, high in ranges)] if ranges else None
+        inside = None if trained is None else bool(trained[0] - 1e-9 <= riser <= trained[1] + 1e-9)
+        rows.append(
+            {"riser": riser, "direction": direction, "trained_risers": trained, "in_training": inside}
+            | _runs_row(group)
+        )
+    return rows
+
+
+def summarise_stairs_by_seed(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """:func:`summarise_stairs` of each training seed's runs, each row with its ``seed``."""
+    return [
+        {"seed": seed, **row} for seed, runs in by_seed(records).items() for row in summarise_stairs(runs)
     ]
 
 
@@ -330,8 +360,9 @@ SUMMARY_FIELDS: dict[str, str] = {
     "distance walked [m] (mean, std), success and fall rates (errors count as falls), error runs, mean "
     "time to finish [s]; push: per magnitude [N] attempts, success rate with its 95 % interval "
     "(success_low, success_high), fall rate, impulse [N·s], delta_v [m/s]; push_directions, push_left_right; "
-    "friction: per course and μ; *_by_seed: the same per training seed; wall_seconds: compute time of the "
-    "controller's runs",
+    "friction: per course and μ; stair_sweep: per riser [m] and direction (up, down) runs, success_rate, "
+    "fall_rate, in_training (the riser inside the policy's training range); *_by_seed: the same per "
+    "training seed; wall_seconds: compute time of the controller's runs",
 }
 """The fields of ``krl evaluate``'s summary (:func:`evaluation_summary`), as its ``--help`` lists them."""
 
@@ -355,14 +386,19 @@ def evaluation_summary(
 
 
 def controller_entry(
-    records: Sequence[dict[str, Any]], courses: Sequence[str], seeded: bool, push: bool, friction: bool
+    records: Sequence[dict[str, Any]],
+    courses: Sequence[str],
+    seeded: bool,
+    push: bool,
+    friction: bool,
+    stairs: bool = False,
 ) -> dict[str, Any]:
     """One controller's part of :func:`evaluation_summary`: its ``records`` summarised per course (of
-    ``courses``), for the push sweep and the friction sweep where they ran, each also per training seed for
-    a ``seeded`` controller, and the wall time of its runs."""
+    ``courses``), for the push, friction and stair sweeps where they ran, each also per training seed for a
+    ``seeded`` controller, and the wall time of its runs."""
     entry: dict[str, Any] = {}
     for course in courses:
-        runs = [r for r in records if r.get("course") == course and "friction" not in r]
+        runs = [r for r in records if r.get("course") == course and "friction" not in r and "stair" not in r]
         entry[course] = summarise_course(runs)
         if seeded:
             entry[course]["by_seed"] = summarise_course_by_seed(runs)
@@ -378,5 +414,10 @@ def controller_entry(
         entry["friction"] = summarise_friction(grounds)
         if seeded:
             entry["friction_by_seed"] = summarise_friction_by_seed(grounds)
+    if stairs:
+        flights = [r for r in records if "stair" in r]
+        entry["stair_sweep"] = summarise_stairs(flights)
+        if seeded:
+            entry["stair_sweep_by_seed"] = summarise_stairs_by_seed(flights)
     entry["wall_seconds"] = sum(r["metrics"]["wall_seconds"] for r in records)
     return entry

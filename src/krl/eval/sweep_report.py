@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from krl.eval.evaluate import FRICTION_DIR, PUSH_DIR
+from krl.eval.evaluate import FRICTION_DIR, PUSH_DIR, STAIR_DIR
 from krl.eval.summaries import (
     PUSH_DIRECTIONS,
     success_interval,
@@ -20,6 +20,8 @@ from krl.eval.summaries import (
     summarise_push_by_seed,
     summarise_push_directions,
     summarise_push_left_right,
+    summarise_stairs,
+    summarise_stairs_by_seed,
 )
 from krl.eval.tables import controller_table, rows_csv
 from krl.util.output import distinct_colours, figure_bytes, write_atomic
@@ -332,26 +334,39 @@ def _push_colours(rows: list[dict[str, Any]]) -> dict[tuple[str, str], Any]:
 def plot_friction(path: Path, rows: list[dict[str, Any]]) -> None:
     """Success rate against ground friction μ, one panel per course, one line per controller (pooled over a
     seed group's seeds), its 95 % Wilson interval shaded."""
+    _plot_panels(path, rows, "course", "friction", "course {}", "ground friction μ (thesis: 1)")
+
+
+def plot_stairs(path: Path, rows: list[dict[str, Any]]) -> None:
+    """Success rate against riser height, one panel per direction (up, down), one line per controller
+    (pooled over a seed group's seeds), its 95 % Wilson interval shaded."""
+    _plot_panels(path, rows, "direction", "riser", "stairs {}", "riser height [m]")
+
+
+def _plot_panels(path: Path, rows: list[dict[str, Any]], panel: str, x: str, title: str, xlabel: str) -> None:
+    """Success rate against ``row[x]``, one panel per value of ``row[panel]`` (titled ``title`` with it), a
+    line per controller (the rows without a ``seed``), each 95 % Wilson interval shaded."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    courses = list(dict.fromkeys(r["course"] for r in rows))
+    panels = list(dict.fromkeys(r[panel] for r in rows))
     controllers = list(dict.fromkeys(r["controller"] for r in rows))
     colours = dict(zip(controllers, distinct_colours(len(controllers)), strict=True))
-    fig, axes = plt.subplots(1, len(courses), figsize=(5 * len(courses), 3.8), sharey=True, squeeze=False)
-    for axis, course in zip(axes[0], courses, strict=True):
-        pooled = [r for r in rows if r["course"] == course and "seed" not in r]
+    fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels), 3.8), sharey=True, squeeze=False)
+    for axis, name in zip(axes[0], panels, strict=True):
+        pooled = [r for r in rows if r[panel] == name and "seed" not in r]
         for controller in dict.fromkeys(r["controller"] for r in pooled):
-            mine = sorted((r for r in pooled if r["controller"] == controller), key=lambda r: r["friction"])
-            frictions = [r["friction"] for r in mine]
-            rates, colour = [r["success_rate"] for r in mine], colours[controller]
-            (line,) = axis.plot(frictions, rates, "-o", label=controller, color=colour)
+            mine = sorted((r for r in pooled if r["controller"] == controller), key=lambda r: r[x])
+            xs = [r[x] for r in mine]
+            (line,) = axis.plot(
+                xs, [r["success_rate"] for r in mine], "-o", label=controller, color=colours[controller]
+            )
             low, high = [r["success_low"] for r in mine], [r["success_high"] for r in mine]
-            axis.fill_between(frictions, low, high, color=line.get_color(), alpha=0.12, linewidth=0)
-        axis.set_title(f"course {course}")
-        axis.set_xlabel("ground friction μ (thesis: 1)")
+            axis.fill_between(xs, low, high, color=line.get_color(), alpha=0.12, linewidth=0)
+        axis.set_title(title.format(name))
+        axis.set_xlabel(xlabel)
         axis.set_ylim(-0.05, 1.05)
     axes[0][0].set_ylabel("success rate")
     axes[0][-1].legend(fontsize=7)
@@ -360,13 +375,62 @@ def plot_friction(path: Path, rows: list[dict[str, Any]]) -> None:
     plt.close(fig)
 
 
+def stair_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
+    """One row per (controller, riser, direction) of the stair sweep (a seed group's pooled over its seeds,
+    then one row per (seed, riser, direction) with its ``seed``)."""
+    rows = []
+    for label, groups in found.items():
+        records = groups.get(STAIR_DIR, [])
+        rows += [{"controller": label, **row} for row in summarise_stairs(records)]
+        rows += [{"controller": label, **row} for row in summarise_stairs_by_seed(records)]
+    return rows
+
+
+def stairs_markdown(rows: list[dict[str, Any]]) -> str:
+    """One table per direction: a row per controller (and per training seed), a column per riser, and the
+    risers the controller trained on (the riser's cell marked † where it lies outside them)."""
+    lines = [
+        "### Success against riser height (ours)",
+        "",
+        "Straight flights of five risers up onto a landing, or down from it (krl.eval.stair_sweep), from 4 "
+        "starts each. Each cell: success rate / fall rate (runs), † where the riser lies outside the risers "
+        "the controller's policy trained on (last column; – for a controller trained on none). The success "
+        "rates' 95 % Wilson intervals are in `stairs.csv`.",
+    ]
+    for direction in dict.fromkeys(r["direction"] for r in rows):
+        mine = [
+            {**r, "controller": r["controller"] + (f" seed {r['seed']}" if "seed" in r else "")}
+            for r in rows
+            if r["direction"] == direction
+        ]
+        risers = sorted({r["riser"] for r in mine})
+        trained = {r["controller"]: r["trained_risers"] for r in mine}
+        table = controller_table(
+            mine,
+            "riser",
+            risers,
+            [f"{riser * 100:g} cm" for riser in risers],
+            lambda r: (
+                f"{r['success_rate']:.2f} / {r['fall_rate']:.2f} ({r['runs']})"
+                + ("†" if r["in_training"] is False else "")
+            ),
+        )
+        table[0] += " trained risers |"
+        table[1] += " --- |"
+        for index, controller in enumerate(dict.fromkeys(r["controller"] for r in mine), start=2):
+            span = trained[controller]
+            table[index] += f" {'–' if span is None else f'{span[0] * 100:g}-{span[1] * 100:g} cm'} |"
+        lines += ["", f"Stairs {direction}:", "", *table]
+    return "\n".join(lines) + "\n"
+
+
 def write_sweep_sections(
     found: dict[str, dict[str, list[dict[str, Any]]]], out: Path
-) -> tuple[list[str], list[str], list[dict[str, Any]], list[dict[str, Any]]]:
-    """The push and friction sections of ``evaluation.md`` and their files in ``out``.
+) -> tuple[list[str], list[str], list[dict[str, Any]], list[dict[str, Any]], list[dict[str, Any]]]:
+    """The push, friction and stair sections of ``evaluation.md`` and their files in ``out``.
 
-    Returns (markdown parts, paths written, push rows with the thesis's, friction rows); no part where a
-    sweep has no records of ours.
+    Returns (markdown parts, paths written, push rows with the thesis's, friction rows, stair rows); no
+    part where a sweep has no records of ours.
     """
     parts: list[str] = []
     written: list[str] = []
@@ -390,4 +454,10 @@ def write_sweep_sections(
         write_atomic(out / "friction.csv", rows_csv(frictions))
         plot_friction(out / "friction.png", frictions)
         written += [str(out / name) for name in ("friction.csv", "friction.png")]
-    return parts, written, pushes, frictions
+    stairs = stair_rows(found)
+    if stairs:
+        parts += [stairs_markdown(stairs), "![success against riser height](stairs.png)\n"]
+        write_atomic(out / "stairs.csv", rows_csv(stairs))
+        plot_stairs(out / "stairs.png", stairs)
+        written += [str(out / name) for name in ("stairs.csv", "stairs.png")]
+    return parts, written, pushes, frictions, stairs
