@@ -7,9 +7,9 @@ argparse keeps the last value of a repeated option, so ``krl collect --out data/
 line cannot go untested. A command runs in its own copy of a workspace (:func:`workspace`) that holds the
 inputs the README's commands name, made small by krl's own commands: ``data/base`` (an expert dataset),
 ``runs/kernel-base`` and ``runs/studies/variants/ind-seed150`` (one-epoch kernels), ``runs/agent-rp`` (a
-tiny agent), ``runs/eval`` (an evaluation for ``krl report``), ``mine.toml`` (a one-waypoint course),
-``study-tiny.json`` (tiny trials for ``krl agent study``) and ``loss.json`` (a config change for ``krl agent
-config``).
+tiny agent), ``runs/eval`` (an evaluation for ``krl report``), ``runs/push`` (a one-push sweep for ``krl
+analyze push-sweep``), ``mine.toml`` (a one-waypoint course), ``study-tiny.json`` (tiny trials for ``krl
+agent study``) and ``loss.json`` (a config change for ``krl agent config``).
 """
 
 from __future__ import annotations
@@ -127,6 +127,8 @@ SMOKE: dict[str, tuple[str, str | None]] = {
     "krl agent config runs/agent-rp/config.json loss.json --out my.json": ("", None),
     "krl convert-results runs/eval": ("", None),
     "krl compare-results runs/eval runs/eval": ("", None),
+    "krl analyze push-sweep runs/push": ("", None),
+    "krl analyze mirror": ("--kernel base --command 0.3,0,0 --duration 0.5", None),
     "krl demo --controller agent:robust": ("--course mine.toml --workers 1 --no-video --quiet", None),
     "krl evaluate --controller agent --controller expert --out evaluations/mine": (
         "--course mine.toml --seeds 150 --workers 1 --quiet",
@@ -175,6 +177,8 @@ WORKSPACE_COMMANDS = (
     "--threads 1 --no-tensorboard --quiet",
     "agent train --out runs/agent-rp --seed 150 --config agent-tiny.json --quiet",
     "evaluate --controller kernel --course mine.toml --workers 1 --quiet",
+    "evaluate --controller kernel --push-sweep --magnitudes 400 --attempts 1 --workers 1 --quiet "
+    "--out runs/push",
 )
 """The ``krl`` commands that make the workspace's inputs (after the files :func:`workspace` writes)."""
 

@@ -9,7 +9,7 @@ import pytest
 
 from krl.analysis.push_faces import face_of, face_rows, parse_band
 from krl.analysis.push_headroom import headroom_rows, push_outcomes
-from krl.analysis.push_sweep import main
+from krl.cli import main
 from krl.eval.records import write_part
 
 SWEEP = {
@@ -123,29 +123,29 @@ def test_a_band_is_low_colon_high_newtons():
 
 
 def test_the_command_reads_a_results_folder_and_writes_both_tables(tmp_path, capsys):
+    """``krl analyze push-sweep``: both tables, written or printed; a bad option value or folder is one line
+    on stderr and exit status 2."""
     for label, records in found_of(OUTCOMES).items():
         write_part(tmp_path / "results" / label, label, records["push"])
     out = tmp_path / "push-sweep.md"
-    main([str(tmp_path / "results"), "--controller", "agent", "--controller", "expert", "--out", str(out)])
+    command = ["analyze", "push-sweep", str(tmp_path / "results")]
+    assert main([*command, "--controller", "agent", "--controller", "expert", "--out", str(out)]) == 0
     text = out.read_text()
     assert "survived by some of the 3 controller seeds | agent (2 seeds): mean | some seed |" in text
     assert "| 400 | 2 | 1.00 | 0.75 | 1.00 | 0.50 | 1.00 | 0.50 |" in text
     assert "| mean |  | 0.75 | 0.38 | 0.50 | 0.25 | 0.50 | 0.50 |" in text
     assert "| sideways | top | 0.75 (4) | 0.00 (4) | 0.50 (2) | 0.50 (2) |" in text
-    main([str(tmp_path / "results"), "--seeds", "2", "--out", str(out)])  # agent's seed 2 and the expert
-    text = out.read_text()
+    capsys.readouterr()
+    assert main([*command, "--seeds", "2"]) == 0  # agent's seed 2 and the expert, printed
+    text = capsys.readouterr().out
     assert "(seeds 2)" in text and "agent (1 seed): mean" in text and "some of the 2 controller seeds" in text
     assert "| 400 | 2 | 1.00 | 1.00 | 0.50 |" in text  # some of the two; seed 2; the expert
     for argv, message in (
-        (["--seeds", "2,x"], "--seeds '2,x': expected SEED,SEED"),
-        (["--controller", "nobody"], "--controller 'nobody': not in"),
-        (["--band", "9:1"], "--band '9:1': expected LOW:HIGH"),
+        ([*command, "--seeds", "2,x"], "--seeds expects comma-separated integers, got '2,x'"),
+        ([*command, "--controller", "nobody"], "--controller 'nobody': not in"),
+        ([*command, "--band", "9:1"], "--band '9:1': expected LOW:HIGH"),
+        (["analyze", "push-sweep", str(tmp_path / "nowhere")], "no results directory"),
     ):
-        with pytest.raises(SystemExit) as stop:
-            main([str(tmp_path / "results"), *argv])
-        assert stop.value.code == 2
+        assert main(argv) == 2
         error = capsys.readouterr().err
-        assert message in error and error.count("\n") == 1
-    with pytest.raises(SystemExit):
-        main([str(tmp_path / "nowhere")])
-    assert "no results directory" in capsys.readouterr().err
+        assert error.startswith("krl: error: ") and message in error and error.count("\n") == 1

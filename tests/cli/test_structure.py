@@ -1,5 +1,6 @@
 """The CLI stays thin and its help complete (issue 47): no function in ``src/krl/cli`` is over 80 lines, and
-every option's ``--help`` of every command shows its default where it has one."""
+every option's ``--help`` of every command shows its default where it has one. Every tool is a ``krl``
+command (issue 61): argparse and script entry points live in ``src/krl/cli`` only."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import krl
 import krl.cli
 from krl.cli import build_parser
 from krl.cli.common import HelpFormatter, shows_default
@@ -29,6 +31,34 @@ def test_no_cli_function_is_over_80_lines():
     folder = Path(krl.cli.__file__).parent
     long = [item for item in _functions(folder) if item[2] > MAX_LINES]
     assert not long, f"functions over {MAX_LINES} lines in krl.cli: {long}"
+
+
+def _script_parts(path: Path) -> list[str]:
+    """What makes the module at ``path`` a command line of its own: an argparse import, an ``if __name__ ==
+    "__main__"`` block, or its being a ``__main__.py``."""
+    tree = ast.parse(path.read_text())
+    parts = ["__main__.py"] if path.name == "__main__.py" else []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import) and any(a.name.split(".")[0] == "argparse" for a in node.names):
+            parts.append("imports argparse")
+        elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "argparse":
+            parts.append("imports argparse")
+        elif isinstance(node, ast.Compare) and "__main__" in {
+            getattr(item, "value", None) for item in (node.left, *node.comparators)
+        }:
+            parts.append('an if __name__ == "__main__" block')
+    return parts
+
+
+def test_every_command_line_is_a_krl_command():
+    """A module outside ``krl.cli`` that parses arguments or runs as ``python -m`` is a tool that ``krl
+    --help`` does not list, docs/cli.md does not show and tests/test_readme.py does not run."""
+    package, cli = Path(krl.__file__).parent, Path(krl.cli.__file__).parent
+    outside = [path for path in sorted(package.rglob("*.py")) if cli not in path.parents]
+    found = {str(path.relative_to(package.parent)): _script_parts(path) for path in outside}
+    offenders = {path: parts for path, parts in found.items() if parts}
+    assert not offenders, f"command lines outside src/krl/cli (make them krl commands): {offenders}"
+    assert _script_parts(cli / "__main__.py") == ["__main__.py"]  # the checker sees the one there is
 
 
 def _parsers(parser: argparse.ArgumentParser, words: tuple[str, ...] = ("krl",)):

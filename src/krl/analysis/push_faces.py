@@ -8,7 +8,7 @@ folder's push records by the face struck and by the push's direction relative to
 quarters left and right of :func:`krl.eval.summaries.push_direction`; along: forward and backward) and
 gives each controller's success per force band.
 
-``python -m krl.analysis.push_sweep`` writes its table.
+``krl analyze push-sweep`` writes its table.
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ what the controllers at hand reach, not a proof of a physical limit: a better co
 "some seed" would be if each seed survived each push independently at its own rate, 1 - Π_s (1 - p_s):
 an observed share below it says the same pushes defeat the seeds together.
 
-``python -m krl.analysis.push_sweep`` writes its table.
+``krl analyze push-sweep`` writes its table.
 """
 
 from __future__ import annotations

@@ -3,9 +3,9 @@
 One module per command group registers its subcommands (``register(subparsers)``): :mod:`krl.cli.sim`
 (terrains, render, view, bench), :mod:`krl.cli.expert` (expert run, expert plot), :mod:`krl.cli.data`
 (collect), :mod:`krl.cli.kernel` (kernel …), :mod:`krl.cli.agent` (agent …, with :mod:`krl.cli.study` for
-agent study), :mod:`krl.cli.eval` (evaluate, report), :mod:`krl.cli.demo`, :mod:`krl.cli.export` and
-:mod:`krl.cli.reproduce`; what they share is in :mod:`krl.cli.common`. This package is the only place
-argparse lives.
+agent study), :mod:`krl.cli.eval` (evaluate, report), :mod:`krl.cli.analyze` (analyze …),
+:mod:`krl.cli.demo`, :mod:`krl.cli.export` and :mod:`krl.cli.reproduce`; what they share is in
+:mod:`krl.cli.common`. This package is the only place argparse lives (``tests/cli/test_structure.py``).
 
 krl's packages, bottom first; each imports only itself and the packages listed before it
 (``tests/test_imports.py`` holds the order and checks it):
@@ -33,7 +33,7 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from krl.cli import agent, data, demo, expert, export, kernel, reproduce, sim
+from krl.cli import agent, analyze, data, demo, expert, export, kernel, reproduce, sim
 from krl.cli import eval as evaluation
 from krl.cli.common import CliError, Parser, interrupted_status
 
@@ -55,6 +55,7 @@ def build_parser() -> Parser:
     data.register(subparsers)
     evaluation.register(subparsers)
     agent.register(subparsers)
+    analyze.register(subparsers)
     demo.register(subparsers)
     export.register(subparsers)
     reproduce.register(subparsers)

@@ -193,3 +193,22 @@ def test_a_walk_and_its_mirror_are_mirror_images_on_the_symmetric_trunk():
         "swing_max_diff",
     ):
         assert abs(figures[name]) < SYMMETRIC_TOLERANCE, (name, figures[name])
+
+
+def test_krl_analyze_mirror_prints_the_asymmetries_and_one_row_per_way(capsys):
+    """``krl analyze mirror``: the model's two asymmetries, then the whole-loop table (a half-second walk:
+    no steady window, its figures dashes); a bad command or duration is one line and exit status 2."""
+    from krl.cli import main
+
+    assert main(["analyze", "mirror", "--kernel", "base", "--command", "0.3,0,0", "--duration", "0.5"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split(":")[0] for line in lines[:2]] == ["model asymmetry"] * 2
+    assert lines[2].startswith("| kernel | command (v_x, v_y, ω_z) | way |")
+    assert [line.split(" | ")[2] for line in lines[4:]] == ["full", "physics", "kernel"]
+    for option, value, message in (
+        ("--command", "1,2", "--command expects 3 comma-separated numbers, got '1,2'"),
+        ("--duration", "0", "--duration must be a finite length of at least one control step"),
+    ):
+        assert main(["analyze", "mirror", option, value]) == 2
+        error = capsys.readouterr().err
+        assert error.startswith("krl: error: ") and message in error and error.count("\n") == 1

@@ -14,8 +14,8 @@ asks whether the simulated robot obeys that mirror:
   command's mirror with the gait clock shifted by half a period (a trot's mirror: FR/RL and FL/RR swap),
   from the same standing start; the figures say how far the second walk is from the mirror of the first.
 
-``python -m krl.analysis.agent.mirror`` prints the tables of docs/agent-robust.md ("How symmetric is the A1
-and its kernel?").
+:func:`mirror_markdown` is what ``krl analyze mirror`` prints: the tables of docs/agent-robust.md ("How
+symmetric is the A1 and its kernel?").
 
 Mirror conventions (MuJoCo's free joint, checked by experiment: ``qvel[0:3]`` is the linear velocity in the
 world frame, ``qvel[3:6]`` the angular velocity in the body frame): with S = diag(1, -1, 1), a position p
@@ -25,7 +25,6 @@ velocity v to S v and an angular velocity ω to -S ω, in the world and in the b
 
 from __future__ import annotations
 
-import argparse
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -421,26 +420,16 @@ def loop_table(
     return "\n".join(lines)
 
 
-def _parse_command(text: str) -> tuple[float, float, float]:
-    values = tuple(float(v) for v in text.split(","))
-    if len(values) != 3:
-        raise argparse.ArgumentTypeError(f"a command is v_x,v_y,yaw_rate, got {text!r}")
-    return values  # type: ignore[return-value]
-
-
-def main(argv: Sequence[str] | None = None) -> None:
-    """``python -m krl.analysis.agent.mirror``: print the model's asymmetries and the whole-loop table."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--kernel", action="append", help="kernel name or file (default: base and ext)")
-    parser.add_argument(
-        "--command", action="append", type=_parse_command, help="v_x,v_y,yaw_rate (repeatable)"
-    )
-    parser.add_argument("--duration", type=float, default=WALK_DURATION, help="walk length [s]")
-    args = parser.parse_args(argv)
-    for asymmetry in model_asymmetries(build_model("flat").model):
-        print(f"model asymmetry: {asymmetry.element} {asymmetry.quantity}: {asymmetry.difference:.6g}")
-    print(loop_table(args.kernel or ["base", "ext"], args.command or DEFAULT_COMMANDS, args.duration))
-
-
-if __name__ == "__main__":
-    main()
+def mirror_markdown(
+    kernels: Sequence[str] = ("base", "ext"),
+    commands: Sequence[Sequence[float]] = DEFAULT_COMMANDS,
+    duration: float = WALK_DURATION,
+) -> str:
+    """The model's asymmetries (one line each, :func:`~krl.analysis.agent.mirror_model.model_asymmetries`)
+    and the whole-loop table (:func:`loop_table`) of ``kernels`` (shipped names or files) at ``commands``
+    (v_x, v_y, ω_z) [m/s, m/s, rad/s], each walk ``duration`` [s] long."""
+    lines = [
+        f"model asymmetry: {asymmetry.element} {asymmetry.quantity}: {asymmetry.difference:.6g}"
+        for asymmetry in model_asymmetries(build_model("flat").model)
+    ]
+    return "\n".join([*lines, loop_table(kernels, commands, duration)]) + "\n"
