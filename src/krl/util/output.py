@@ -25,8 +25,32 @@ def write_atomic(path: Path, data: bytes | str, durable: bool = False) -> None:
 
     With ``durable`` the file is fsynced before the rename and the folder after it, so the new file
     also survives a crash of the machine, not only of the process (the datasets' parts and manifests).
+
+    Raises:
+        OSError: the file cannot be written (a full disk, a read-only folder), of the same kind, its
+            message naming ``path`` (:func:`cannot_write`), not the temporary file.
     """
     path = Path(path)
+    try:
+        _replace_through_temporary(path, data, durable)
+    except OSError as error:
+        raise cannot_write(path, error) from None
+
+
+def cannot_write(path: Path, error: OSError) -> OSError:
+    """``error`` of writing ``path`` as an error of the same kind and number whose one-line message names
+    ``path`` (``cannot write runs/eval/expert/commands.txt: No space left on device``) and the folder that
+    could not be made, if that failed (not the temporary file, a name the user never gave)."""
+    reason = error.strerror or str(error)
+    if error.filename is not None and Path(error.filename).parent != path.parent:
+        reason = f"{error.filename}: {reason}"
+    failure = type(error)(f"cannot write {path}: {reason}")
+    failure.errno = error.errno
+    return failure
+
+
+def _replace_through_temporary(path: Path, data: bytes | str, durable: bool) -> None:
+    """:func:`write_atomic`'s work: the folder made, a temporary file written, then renamed to ``path``."""
     path.parent.mkdir(parents=True, exist_ok=True)
     if isinstance(data, str):
         data = data.encode()

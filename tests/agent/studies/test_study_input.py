@@ -72,6 +72,9 @@ def bad_storages(tmp_path: Path) -> dict[str, str]:
         "no dialect": "nosuchdb://krl:secret@db.example/studies",
         "no driver": "postgresql+nosuchdriver://krl:secret@db.example/studies",
         "refused port": "postgresql://krl:secret@127.0.0.1:1/studies",
+        "a password with a slash": "postgresql://krl:Top/secret@127.0.0.1:1/studies",
+        "a password parameter": "postgresql://krl@127.0.0.1:1/studies?password=secret",
+        "an unencoded @ in the password": "postgresql://krl:top@secret@127.0.0.1:1/studies",
         "missing folder": f"sqlite:///{tmp_path}/missing/folder/study.db",
         "a file for a folder": f"sqlite:///{tmp_path}/a-file/study.db",
         "corrupt": f"sqlite:///{tmp_path}/garbage.db",
@@ -141,6 +144,15 @@ def test_masked_hides_every_urls_password_and_nothing_else():
     assert masked("krl agent study x --storage=mysql://u:pw@h/d --jobs 2") == (
         "krl agent study x --storage=mysql://u:***@h/d --jobs 2"
     )
+    # issue 61: a password holding "/" or "@", given as a parameter, or in a quoted command line
+    assert masked("postgresql://krl:Top/Secret99@127.0.0.1:9/x") == "postgresql://krl:***@127.0.0.1:9/x"
+    assert masked("postgresql://krl:Top@Sec/ret99@127.0.0.1:9/x") == "postgresql://krl:***@127.0.0.1:9/x"
+    assert masked("postgresql://krl@db/x?sslmode=require&Password=S3&a=b") == (
+        "postgresql://krl@db/x?sslmode=require&Password=***&a=b"
+    )
+    assert masked("""krl agent study x --storage 'postgresql://krl:a/b'"'"'c@db/x' --jobs 2""") == (
+        "krl agent study x --storage 'postgresql://krl:***@db/x' --jobs 2"
+    )
     for plain in ("sqlite:////tmp/a:b@c/study.db", "postgresql://krl@db/studies", "sqlite:///study.db"):
         assert masked(plain) == plain
 
@@ -172,6 +184,27 @@ def test_a_storage_password_is_masked_in_the_status_and_the_report(tmp_path, cap
     assert study_cli(capsys, *argv, "--report")[0] == 0
     report = (tmp_path / "s" / "report" / "state-space.md").read_text()
     assert "--storage postgresql://krl:***@db.example/krl_studies" in report and "secret" not in report
+
+
+@pytest.mark.parametrize(
+    ("url", "shown"),
+    [
+        ("postgresql://krl:Top/secret@db.example/x", "postgresql://krl:***@db.example/x"),
+        ("postgresql://krl@db.example/x?password=secret", "postgresql://krl@db.example/x?password=***"),
+    ],
+)
+def test_a_password_with_a_slash_or_as_a_parameter_is_masked_in_the_status_and_the_report(
+    tmp_path, capsys, as_sqlite, url, shown
+):
+    argv = ["state-space", "--out", str(tmp_path / "s"), "--storage", url, "--seeds", "7"]
+    argv += ["--budget", "400", "--workers", "1", "--jobs", "1", "--quiet", "--json"]
+    status, out, err = study_cli(capsys, *argv)
+    assert status == 0, err
+    assert json.loads(out)["storage"] == shown
+    status, out, _ = study_cli(capsys, *argv, "--report")
+    assert status == 0 and "secret" not in out
+    report = (tmp_path / "s" / "report" / "state-space.md").read_text()
+    assert shown in report and "secret" not in report
 
 
 def test_json_without_quiet_is_json_alone_on_stdout_and_the_progress_goes_to_stderr(

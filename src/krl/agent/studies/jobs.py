@@ -56,12 +56,22 @@ def _job(
         if parent is None:
             raise
         raise SystemExit(130) from None  # its trial is checkpointed and queued again
+    except (*database_errors(), StudyError, OSError) as error:
+        if parent is None:
+            raise
+        reason = storage_failure(url, error) if isinstance(error, database_errors()) else masked(str(error))
+        print(f"krl: error: {reason}", file=sys.stderr)  # one line, as the parent's; it counts the failure
+        raise SystemExit(2) from None
 
 
 def run_jobs(name: str, settings, out: Path, url: str, heartbeat: float, log_to: str, jobs: int) -> None:
     """``jobs`` study processes: this one (its lines going where ``log_to`` says) and ``jobs - 1`` spawned
     (quiet). Ctrl-C or SIGTERM of this one, while it trains or waits for the others, stops every job: each
-    checkpoints its trial and queues it again."""
+    checkpoints its trial and queues it again.
+
+    Raises:
+        StudyError: a spawned job stopped with an error (its trials may not be stored); one line.
+    """
     spawn = multiprocessing.get_context("spawn")
     others = [
         spawn.Process(target=_job, args=(name, settings, str(out), url, heartbeat, "quiet", os.getpid()))
@@ -78,6 +88,12 @@ def run_jobs(name: str, settings, out: Path, url: str, heartbeat: float, log_to:
             # each job checkpoints its trial and queues it again: as long as a SQLite write may wait
             stop_processes(others, SQLITE_LOCK_TIMEOUT)
             raise
+    failed = [str(process.exitcode) for process in others if process.exitcode != 0]
+    if failed:
+        raise StudyError(
+            f"{len(failed)} of study {name}'s {jobs} processes stopped with an error (exit status "
+            f"{', '.join(failed)}): run the same command again to resume the trials they held"
+        )
 
 
 def run_study(
@@ -94,9 +110,11 @@ def run_study(
     (:func:`~krl.agent.studies.report.study_status`) and its failed trials' errors (empty: all finished).
 
     Raises:
-        StudyError: a bad storage, or settings other than the stored ones; one line.
+        StudyError: a bad storage, a read-only ``out``, or settings other than the stored ones; one line.
     """
     out.mkdir(parents=True, exist_ok=True)
+    if not os.access(out, os.W_OK | os.X_OK):  # every trial would fail writing its run folder
+        raise StudyError(f"the study folder {out} is read-only: give another --out")
     try:  # opened once before anything trains or is spawned
         check_storage(url, heartbeat)
     except ValueError as error:

@@ -41,7 +41,7 @@ from typing import Any
 from stable_baselines3.common.callbacks import BaseCallback
 
 from krl.agent.studies.designs import StudyDesign, merged
-from krl.util.optuna_storage import HEARTBEAT, check_study_database, masked, study_storage
+from krl.util.optuna_storage import HEARTBEAT, check_study_database, check_url, masked, study_storage
 
 SEARCH, CONFIRM, LIST = "search", "confirm", "list"
 """A study's stages: a search's random trials and its confirming runs; a list study's runs."""
@@ -126,6 +126,7 @@ def stored_settings(design: StudyDesign, url: str) -> StudySettings | None:
     None if it has not been started there. Creates nothing."""
     import optuna
 
+    check_url(url)  # before a missing file says "not started": a SQLite URL may name no file at all
     if url.startswith("sqlite:///") and not Path(url.removeprefix("sqlite:///")).exists():
         return None
     check_study_database(url)  # Optuna would create its tables in a foreign file
