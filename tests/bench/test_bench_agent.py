@@ -29,3 +29,28 @@ def test_bench_agent_runs_a_given_config(tmp_path, capsys):
     assert "missing.json" in capsys.readouterr().err
     assert main(["bench", "agent", "--config", str(path), *small, "--update-threads", "0"]) == 2
     assert "--update-threads must be at least 1, got 0" in capsys.readouterr().err
+
+
+def test_bench_agent_measures_the_scan_of_an_agent_that_observes_it(tmp_path, capsys):
+    config = AgentConfig(num_envs=2)
+    observation = replace(
+        config.observation,
+        features=(*config.observation.features, "height_scan"),
+        critic_features=("height_scan_clean", "push_force"),
+    )
+    scanning = replace(config, observation=observation, ppo=replace(config.ppo, batch_size=64, n_epochs=1))
+    path = tmp_path / "scan.json"
+    path.write_text(json.dumps(scanning.to_json()))
+    small = ["--steps", "10", "--repeats", "1", "--train-steps", "1"]
+    assert main(["bench", "agent", "--config", str(path), *small, "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["scan_points"] == 187 and result["env_target_ratio"] == 0.45
+    assert set(result["scan_us_per_robot"]) == {
+        "heightfield",
+        "pyramids",
+        "pits",
+        "slope",
+        "tabletop",
+        "seesaw",
+    }
+    assert all(us > 0 for us in result["scan_us_per_robot"].values())
