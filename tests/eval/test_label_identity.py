@@ -93,3 +93,25 @@ def test_the_same_controller_and_courses_resume_and_grow(tmp_path, tiny, capsys)
     assert main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert (summary["ran"], summary["stored"]) == (1, 1)
+
+
+def test_a_repeated_push_magnitude_is_one_run_in_the_summary(tmp_path, capsys):
+    # before the fix, --magnitudes 300,300 stored one run per attempt but the summary said attempts 2
+    out = tmp_path / "out"
+    argv = ["--controller", "kernel", "--push-sweep", "--magnitudes", "300,300", "--attempts", "1"]
+    assert main(evaluate_argv(out, *argv)) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["runs"] == summary["ran"] == 1
+    assert summary["push_sweep"]["magnitudes"] == [300]
+    ((row),) = summary["controllers"]["kernel-base"]["push"]
+    assert row["attempts"] == 1
+
+
+def test_a_repeated_seed_is_one_run_in_the_summary(tmp_path, tiny, capsys):
+    group, out = tmp_path / "mine", tmp_path / "out"
+    group.mkdir()
+    make_policy(AgentConfig(), seed=1).save(group / "policy-seed1.npz")
+    argv = evaluate_argv(out, "--controller", f"agent:{group}", "--course", str(tiny), "--seeds", "1,1")
+    assert main(argv) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["runs"] == summary["ran"] == summary["controllers"]["agent-mine"]["tiny"]["runs"] == 1

@@ -108,7 +108,7 @@ class Task:
 
 def run_seeds(spec: ControllerSpec, seeds: Sequence[int] | None) -> list[int | None]:
     """The seeds ``spec`` runs with: ``[None]`` for a controller that is not seeded; for a seeded one
-    ``seeds`` (None: every seed it holds).
+    ``seeds`` (None: every seed it holds), each once.
 
     Raises :class:`ControllerSpecError` for a seed a seeded controller holds no policy for (before anything
     is written).
@@ -117,7 +117,7 @@ def run_seeds(spec: ControllerSpec, seeds: Sequence[int] | None) -> list[int | N
         return [None]
     for seed in seeds or ():
         spec.artifact(seed)
-    return list(spec.seeds if seeds is None else seeds)
+    return list(dict.fromkeys(spec.seeds if seeds is None else seeds))
 
 
 def course_tasks(
