@@ -32,21 +32,16 @@ from krl.eval.controllers import ControllerSpec
 from krl.eval.courses import Course
 from krl.eval.episodes import FrictionSweep, PushSweep, score_push_attempt, score_walk
 from krl.eval.label_identity import check_label
+from krl.eval.record_schema import FRICTION_DIR, PUSH_DIR
 from krl.eval.records import EvaluationError, RecordWriter, read_runs, remove_leftovers
 from krl.util.machine import machine
 from krl.util.output import write_atomic
 from krl.util.parallel import run_jobs
 
-__all__ = ["EvaluationError"]  # defined with the records it refuses, raised from here too
+__all__ = ["FRICTION_DIR", "PUSH_DIR", "EvaluationError"]  # defined with the records, used from here too
 
 RESULT_FORMAT = 1
 """Version of the per-run records' fields (the parts' layout: :data:`krl.eval.records.PART_FORMAT`)."""
-
-PUSH_DIR = "push"
-"""Subdirectory of a controller's results that holds the push sweep."""
-
-FRICTION_DIR = "friction"
-"""Subdirectory of a controller's results that holds the friction sweep."""
 
 
 BATCH_RUNS = 128
