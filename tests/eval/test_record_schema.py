@@ -44,7 +44,7 @@ def refusals(out, tiny, capsys) -> list[str]:
         capsys.readouterr()
         assert main(argv) == 2
         errors.append(capsys.readouterr().err)
-    with pytest.raises(records.EvaluationError) as refused:  # what its command prints in one line
+    with pytest.raises(ValueError) as refused:  # what its command prints in one line
         push_sweep_markdown(out)
     return [*errors, f"krl: error: {refused.value}\n"]
 
@@ -68,6 +68,16 @@ def test_an_old_json_row_with_only_its_success_is_refused_in_one_line(tmp_path, 
     row.write_text(json.dumps({"metrics": {"success": True}}))
     for err in refusals(out, tiny, capsys):
         assert err.count("\n") == 1 and f"{row}: field controller is missing" in err, err
+
+
+def test_a_damaged_part_is_refused_by_the_push_sweeps_analysis_as_by_krl_report(tmp_path, tiny, capsys):
+    # before the fix, python -m krl.analysis.push_sweep printed a traceback (a RuntimeError)
+    out = tmp_path / "out"
+    assert main(evaluate_argv(out, tiny)) == 0
+    part = out / "kernel-base" / "part-00000.parquet"
+    part.write_bytes(part.read_bytes()[:-1])
+    for err in refusals(out, tiny, capsys):
+        assert err.count("\n") == 1 and f"{part}: damaged record part" in err, err
 
 
 @pytest.mark.parametrize(

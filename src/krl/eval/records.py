@@ -64,8 +64,9 @@ FLUSH_SECONDS = 60.0
 """...or once the oldest waiting record has waited this long [s]: a killed evaluation loses at most that."""
 
 
-class EvaluationError(RuntimeError):
-    """Stored results that cannot be used (corrupt, or made by something else); one line."""
+class EvaluationError(ValueError):
+    """Stored results that cannot be used (corrupt, or made by something else); one line. A ValueError:
+    whatever refuses bad input in one line refuses these too (``krl analyze``'s readers)."""
 
 
 def run_order(run: str) -> tuple[str, str]:
