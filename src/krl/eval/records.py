@@ -13,7 +13,8 @@ records made since 2026-12-07 the ``machine`` that computed them, :func:`krl.uti
 the other columns repeat a few of its fields for queries (``pyarrow.dataset``, pandas, DuckDB) and are not
 read back. The schema metadata names the label and the format and holds the SHA-256 of the records, so a
 damaged part, a part of another controller or a half-written one is refused in one line rather than mixed
-into results; a temporary file that an interrupted write left behind is removed (its runs run again).
+into results, as is a record without a field its readers need (:mod:`krl.eval.record_schema`); a temporary
+file that an interrupted write left behind is removed (its runs run again).
 
 :func:`read_runs` reads both layouts; :class:`RecordWriter` buffers records and writes parts;
 :func:`consolidate` merges a label's parts (and, converting an old folder, its JSON files) into one part,
