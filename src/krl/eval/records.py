@@ -117,6 +117,12 @@ def _run_order_of(record: dict[str, Any]) -> tuple[str, str]:
     return run_order(record["run"])
 
 
+def _texts(records: Sequence[dict[str, Any]]) -> list[str]:
+    """The JSON texts of ``records`` in :func:`run_order`: what two lists of records must share to be one
+    (NaN equal to NaN, unlike the records compared as dicts)."""
+    return [_record_text(record) for record in sorted(records, key=_run_order_of)]
+
+
 def _same_table(table, expected) -> bool:
     """Whether two ``pyarrow.Table`` hold the same columns and values, NaN equal to NaN (a record's JSON
     text may hold NaN, which ``Table.equals`` finds unequal to itself)."""
@@ -320,7 +326,7 @@ def _next_part(folder: Path, label: str, records: Sequence[dict[str, Any]]) -> P
         raise EvaluationError(
             f"{folder}: no readable part of these records ({error}); nothing written"
         ) from None
-    if [_record_text(r) for r in back] != [_record_text(r) for r in sorted(records, key=_run_order_of)]:
+    if _texts(back) != _texts(records):
         raise EvaluationError(f"{folder}: records that do not read back as written; nothing written")
     write_atomic(path, data, durable=True)
     return path
@@ -352,6 +358,8 @@ def _consolidate(folder: Path, label: str, absorb_json: bool) -> dict[str, int]:
         return {"runs": len(runs), "parts_merged": 0, "json_removed": 0}
     kept = [stored.record for stored in runs.values() if absorb_json or stored.source.suffix == ".parquet"]
     merged = _next_part(folder, label, kept)
+    if _texts(read_part(merged, label)) != _texts(kept):
+        raise EvaluationError(f"{merged}: the merged part does not read back as written; nothing was removed")
     for path in [*parts, *files]:
         path.unlink()
     for group in {path.parent for path in files}:
