@@ -189,3 +189,50 @@ def as_json_layout(out) -> None:
             path.write_text(json.dumps(stored.record, indent=1))
         for part in part_files(folder):
             part.unlink()
+
+
+def complete_record(record: dict, label: str) -> dict:
+    """``record`` (a run of controller ``label``, reduced to what a test reads) with every other field a
+    stored record holds (:mod:`krl.eval.record_schema`) at a neutral value, so that the readers take it."""
+    from krl.eval.record_schema import FRICTION_DIR, PUSH_DIR
+
+    metrics = {
+        "targets": 5,
+        "targets_reached": 0,
+        "success": False,
+        "fell": False,
+        "timed_out": False,
+        "error": None,
+        "steps": 1,
+        "reward_total": 0.0,
+        "reward_per_step": 0.0,
+        "reward_terms": {},
+        "time_to_finish": None,
+        "distance_walked": 0.0,
+        "sim_seconds": 0.0,
+        "wall_seconds": 0.0,
+    }
+    defaults = {"controller": {"kind": "agent", "label": label, "options": {}, "model_sha256": None}}
+    group = record["run"].partition("/")[0]
+    if group == PUSH_DIR:
+        push = {
+            "magnitude": 0.0,
+            "force": [0.0, 0.0, 0.0],
+            "point": [0.0, 0.0, 0.0],
+            "impulse": 0.0,
+            "delta_v": 0.0,
+        }
+        defaults.update(sweep={}, magnitude=0.0, attempt=0, metrics={**metrics, "push": push})
+    else:
+        defaults.update(course=group, course_fingerprint="0" * 64, start=0, metrics=metrics)
+        if group == FRICTION_DIR:
+            defaults["friction"] = 1.0
+
+    def merged(given: dict, default: dict) -> dict:
+        result = {**default, **given}
+        for key, value in default.items():
+            if isinstance(value, dict) and isinstance(given.get(key), dict):
+                result[key] = merged(given[key], value)
+        return result
+
+    return merged(record, defaults)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import pytest
+from eval_fakes import complete_record
 
 from krl.analysis.push_faces import face_of, face_rows, parse_band
 from krl.analysis.push_headroom import headroom_rows, push_outcomes
@@ -126,7 +127,7 @@ def test_the_command_reads_a_results_folder_and_writes_both_tables(tmp_path, cap
     """``krl analyze push-sweep``: both tables, written or printed; a bad option value or folder is one line
     on stderr and exit status 2."""
     for label, records in found_of(OUTCOMES).items():
-        write_part(tmp_path / "results" / label, label, records["push"])
+        write_part(tmp_path / "results" / label, label, [complete_record(r, label) for r in records["push"]])
     out = tmp_path / "push-sweep.md"
     command = ["analyze", "push-sweep", str(tmp_path / "results")]
     assert main([*command, "--controller", "agent", "--controller", "expert", "--out", str(out)]) == 0

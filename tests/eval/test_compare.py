@@ -4,15 +4,18 @@ from __future__ import annotations
 
 import json
 
+from eval_fakes import complete_record
+
 from krl.cli import main
 from krl.eval import records
 from krl.eval.compare import compare_records, flatten
 
 
 def record(run, success=True, reward=0.1, wall=1.0):
+    """A complete record of agent-rp's run ``run`` on stairs."""
     metrics = {"success": success, "fell": not success, "targets_reached": 5 if success else 2}
     metrics.update(reward_per_step=reward, wall_seconds=wall, reward_terms={"gravity": reward * 10})
-    return {"controller": {"label": "agent-rp"}, "course": "stairs", "run": run, "metrics": metrics}
+    return complete_record({"course": "stairs", "run": run, "metrics": metrics}, "agent-rp")
 
 
 def test_fields_are_flattened_and_wall_time_ignored():

@@ -80,6 +80,7 @@ def test_push_sweep_attempts_share_their_draws_across_magnitudes():
     [
         ({"attempts": 0}, "attempts"),
         ({"magnitudes": (-5.0,)}, "magnitudes"),
+        ({"magnitudes": (300.0, 400.0, 300.0)}, "magnitudes must be distinct"),
         ({"window": (1.0, 50.0)}, "window"),
     ],
 )

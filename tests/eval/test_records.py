@@ -5,7 +5,7 @@ import functools
 import json
 
 import pytest
-from eval_fakes import as_json_layout
+from eval_fakes import as_json_layout, complete_record
 
 from krl.cli import main
 from krl.eval import evaluate, records
@@ -209,9 +209,8 @@ def test_convert_names_a_missing_folder_or_controller_in_one_line(tmp_path, caps
 
 def _write_parts(folder, first, count):
     """Write ``count`` parts of one record each, then merge (in a process of its own)."""
-    controller = {"label": "kernel-base"}
     for index in range(first, first + count):
-        record = {"controller": controller, "run": f"tiny/start{index}", "metrics": {"success": True}}
+        record = complete_record({"run": f"tiny/start{index}"}, "kernel-base")
         records.write_part(folder, "kernel-base", [record])
     records.consolidate(folder)
 

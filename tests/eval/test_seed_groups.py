@@ -4,6 +4,7 @@ behind them, on records whose every number is worked out by hand."""
 import json
 
 import pytest
+from eval_fakes import complete_record
 
 from krl.eval import evaluate, report, summaries, sweep_report
 
@@ -94,7 +95,7 @@ def test_the_report_writes_the_seed_rows_beside_the_tables(tmp_path):
     for record in COURSE:
         path = results / "agent-rp" / f"{record['run']}.json"
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(record))
+        path.write_text(json.dumps(complete_record(record, "agent-rp")))
     written = report.write_report(results, tmp_path / "out", None, "krl report")
     assert str(tmp_path / "out" / "course-stairs-seeds.csv") in written["written"]
     markdown = (tmp_path / "out" / "evaluation.md").read_text()

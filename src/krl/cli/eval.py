@@ -22,7 +22,8 @@ from krl.eval.courses import SHIPPED_COURSES
 
 
 def _magnitudes(text: str) -> tuple[float, ...]:
-    """``250:900:50`` (inclusive range) or ``300,500`` -> magnitudes [N]."""
+    """``250:900:50`` (inclusive range) or ``300,500`` -> magnitudes [N], each once (``300,300`` is one
+    magnitude: its runs are stored once, so the summary counts them once)."""
     try:
         if ":" in text:
             low, high, step = (float(part) for part in text.split(":"))
@@ -30,7 +31,7 @@ def _magnitudes(text: str) -> tuple[float, ...]:
                 raise ValueError
             count = round((high - low) / step) + 1
             return tuple(low + step * index for index in range(count))
-        return tuple(float(part) for part in text.split(","))
+        return tuple(dict.fromkeys(float(part) for part in text.split(",")))
     except ValueError:
         raise ValueError(
             f"--magnitudes expects LOW:HIGH:STEP or a comma list of forces [N], got {text!r}"

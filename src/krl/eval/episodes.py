@@ -201,7 +201,7 @@ class PushSweep:
     """
 
     magnitudes: tuple[float, ...] = THESIS_PUSH_MAGNITUDES
-    """Push forces [N] (thesis Table 5.5: 250-900 N in steps of 50)."""
+    """Push forces [N], distinct (thesis Table 5.5: 250-900 N in steps of 50)."""
     attempts: int = THESIS_PUSH_ATTEMPTS
     """Attempts per magnitude (the thesis's 10)."""
     seed: int = 0
@@ -225,6 +225,8 @@ class PushSweep:
     def __post_init__(self) -> None:
         if not self.magnitudes or any(not (math.isfinite(m) and m >= 0) for m in self.magnitudes):
             raise ValueError(f"push magnitudes must be finite numbers >= 0 N, got {self.magnitudes}")
+        if len(set(self.magnitudes)) != len(self.magnitudes):
+            raise ValueError(f"push magnitudes must be distinct, got {self.magnitudes}")
         if self.attempts < 1:
             raise ValueError(f"attempts must be >= 1, got {self.attempts}")
         low, high = self.window

@@ -10,7 +10,8 @@ the main process writes them as Parquet
 parts of ``OUT/<controller>/`` (:mod:`krl.eval.records`: atomically, in batches, merged into one part at the
 end) and reads the older layout's ``OUT/<controller>/<key>.json`` too. A record stores what made it
 (controller, course or sweep fingerprint, seed, friction), so a re-run skips finished runs and refuses to
-mix results of a different course file or kernel into the same directory. A seed group's run records its
+mix results of a different course file or kernel into the same directory, under a label any of whose runs
+is stored (:mod:`krl.eval.label_identity`), not only the runs of this call. A seed group's run records its
 own seed's policy file, so adding a seed to a group keeps the other seeds' records. Every run is seeded by
 its own key, so results do not depend on the number of workers or on the order in which runs finish.
 """
@@ -30,24 +31,23 @@ import numpy as np
 from krl.eval.controllers import ControllerSpec
 from krl.eval.courses import Course
 from krl.eval.episodes import FrictionSweep, PushSweep, score_push_attempt, score_walk
+from krl.eval.label_identity import check_label
+from krl.eval.record_schema import FRICTION_DIR, PUSH_DIR, STAIR_DIR
 from krl.eval.records import EvaluationError, RecordWriter, read_runs, remove_leftovers
 from krl.eval.stair_sweep import StairSweep, trained_risers
 from krl.util.machine import machine
 from krl.util.output import write_atomic
 from krl.util.parallel import run_jobs
 
-__all__ = ["EvaluationError"]  # defined with the records it refuses, raised from here too
+__all__ = [
+    "FRICTION_DIR",
+    "PUSH_DIR",
+    "STAIR_DIR",
+    "EvaluationError",
+]  # defined with the records, used from here too
 
 RESULT_FORMAT = 1
 """Version of the per-run records' fields (the parts' layout: :data:`krl.eval.records.PART_FORMAT`)."""
-
-PUSH_DIR = "push"
-"""Subdirectory of a controller's results that holds the push sweep."""
-
-FRICTION_DIR = "friction"
-"""Subdirectory of a controller's results that holds the friction sweep."""
-STAIR_DIR = "stair-sweep"
-"""Subdirectory of a controller's results that holds the stair sweep."""
 
 
 BATCH_RUNS = 128
@@ -114,7 +114,7 @@ class Task:
 
 def run_seeds(spec: ControllerSpec, seeds: Sequence[int] | None) -> list[int | None]:
     """The seeds ``spec`` runs with: ``[None]`` for a controller that is not seeded; for a seeded one
-    ``seeds`` (None: every seed it holds).
+    ``seeds`` (None: every seed it holds), each once.
 
     Raises :class:`ControllerSpecError` for a seed a seeded controller holds no policy for (before anything
     is written).
@@ -123,7 +123,7 @@ def run_seeds(spec: ControllerSpec, seeds: Sequence[int] | None) -> list[int | N
         return [None]
     for seed in seeds or ():
         spec.artifact(seed)
-    return list(spec.seeds if seeds is None else seeds)
+    return list(dict.fromkeys(spec.seeds if seeds is None else seeds))
 
 
 def course_tasks(
@@ -318,7 +318,8 @@ def run_identity(task: Task) -> str:
 
 def _stored_records(out: Path, planned: dict[tuple[str, str], Task]) -> dict[tuple[str, str], dict[str, Any]]:
     """The stored record of each planned ``(label, run key)`` that has one (not one whose video is
-    missing), each checked against its task."""
+    missing), each checked against its task; then every stored run of each label, planned or not, checked
+    to be of this call's controller and courses (:func:`krl.eval.label_identity.check_label`)."""
     records = {}
     for label in dict.fromkeys(label for label, _ in planned):
         runs = read_runs(out / label, label) if (out / label).is_dir() else {}
@@ -326,6 +327,9 @@ def _stored_records(out: Path, planned: dict[tuple[str, str], Task]) -> dict[tup
             task = planned.get((label, key))
             if task is not None and not (task.video and not Path(task.video).exists()):
                 records[label, key] = check_record(found.record, task, found.source)
+        tasks = [task for (of, _), task in planned.items() if of == label]
+        courses = {t.course.name: t.course.fingerprint for t in tasks if t.course and t.friction is None}
+        check_label(out / label, tasks[0].controller, courses, runs)
     return records
 
 

@@ -13,7 +13,8 @@ records made since 2026-12-07 the ``machine`` that computed them, :func:`krl.uti
 the other columns repeat a few of its fields for queries (``pyarrow.dataset``, pandas, DuckDB) and are not
 read back. The schema metadata names the label and the format and holds the SHA-256 of the records, so a
 damaged part, a part of another controller or a half-written one is refused in one line rather than mixed
-into results; a temporary file that an interrupted write left behind is removed (its runs run again).
+into results, as is a record without a field its readers need (:mod:`krl.eval.record_schema`); a temporary
+file that an interrupted write left behind is removed (its runs run again).
 
 :func:`read_runs` reads both layouts; :class:`RecordWriter` buffers records and writes parts;
 :func:`consolidate` merges a label's parts (and, converting an old folder, its JSON files) into one part,
@@ -34,6 +35,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from krl.eval.record_schema import record_problem
 from krl.util.output import write_atomic
 
 PART_FORMAT = 1
@@ -63,8 +65,9 @@ FLUSH_SECONDS = 60.0
 """...or once the oldest waiting record has waited this long [s]: a killed evaluation loses at most that."""
 
 
-class EvaluationError(RuntimeError):
-    """Stored results that cannot be used (corrupt, or made by something else); one line."""
+class EvaluationError(ValueError):
+    """Stored results that cannot be used (corrupt, or made by something else); one line. A ValueError:
+    whatever refuses bad input in one line refuses these too (``krl analyze``'s readers)."""
 
 
 def run_order(run: str) -> tuple[str, str]:
@@ -110,12 +113,31 @@ def _table(label: str, records: Sequence[dict[str, Any]]):
     return pa.table(columns).replace_schema_metadata({METADATA_KEY: json.dumps(meta).encode()})
 
 
+def _run_order_of(record: dict[str, Any]) -> tuple[str, str]:
+    return run_order(record["run"])
+
+
+def _texts(records: Sequence[dict[str, Any]]) -> list[str]:
+    """The JSON texts of ``records`` in :func:`run_order`: what two lists of records must share to be one
+    (NaN equal to NaN, unlike the records compared as dicts)."""
+    return [_record_text(record) for record in sorted(records, key=_run_order_of)]
+
+
+def _same_table(table, expected) -> bool:
+    """Whether two ``pyarrow.Table`` hold the same columns and values, NaN equal to NaN (a record's JSON
+    text may hold NaN, which ``Table.equals`` finds unequal to itself)."""
+    if table.equals(expected):
+        return True
+    same_schema = table.schema.equals(expected.schema)
+    return same_schema and json.dumps(table.to_pydict()) == json.dumps(expected.to_pydict())
+
+
 def part_bytes(label: str, records: Sequence[dict[str, Any]]) -> bytes:
     """The Parquet bytes of a part holding ``records`` of controller ``label``, in :func:`run_order`."""
     import pyarrow.parquet as pq
 
     buffer = io.BytesIO()
-    table = _table(label, sorted(records, key=lambda r: run_order(r["run"])))
+    table = _table(label, sorted(records, key=_run_order_of))
     pq.write_table(table, buffer, compression="zstd")
     return buffer.getvalue()
 
@@ -123,27 +145,41 @@ def part_bytes(label: str, records: Sequence[dict[str, Any]]) -> bytes:
 def read_part(path: Path, label: str) -> list[dict[str, Any]]:
     """The records of one part of controller ``label``; :class:`EvaluationError` (one line) for a part that
     is damaged (unreadable, or any column or metadata field not what its records make: every byte that
-    the records depend on is checked), of another format or of another controller."""
+    the records depend on is checked), of another format or of another controller, or that holds a record
+    without a field its readers need (:func:`krl.eval.record_schema.record_problem`)."""
+    return _part_records(path, path, label)
+
+
+def _part_records(source: Path | io.BytesIO, path: Path, label: str) -> list[dict[str, Any]]:
+    """:func:`read_part` of the Parquet file or bytes ``source``, named ``path`` in messages."""
     import pyarrow.parquet as pq
 
     def refuse(reason: str) -> EvaluationError:
         return EvaluationError(f"{path}: damaged record part ({reason}); delete it to redo its runs")
 
     try:
-        table = pq.read_table(path)
+        table = pq.read_table(source)
         meta = json.loads((table.schema.metadata or {})[METADATA_KEY])
         texts = table.column("record").to_pylist()
         digest = _sha256(texts)
         records = [json.loads(text) for text in texts]
-        labels = {record["controller"]["label"] for record in records}
-        consistent = table.equals(_table(meta["label"], records))
     except (OSError, ValueError, KeyError, TypeError, AttributeError) as error:  # ArrowInvalid: ValueError
         raise refuse(" ".join(str(error).split())[:160]) from None
-    if set(meta) != {"format", "label", "runs", "records_sha256"}:
-        raise refuse(f"metadata fields {sorted(meta)}")
+    if not isinstance(meta, dict) or set(meta) != {"format", "label", "runs", "records_sha256"}:
+        raise refuse(f"metadata fields {sorted(meta) if isinstance(meta, dict) else 'missing'}")
     if len(texts) != meta["runs"] or digest != meta["records_sha256"]:
         raise refuse("its records do not match their SHA-256")
-    if not consistent or labels - {meta["label"]}:
+    for record in records:
+        problem = record_problem(record)
+        if problem is not None:
+            run = record.get("run") if isinstance(record, dict) else None
+            where = f" (run {run})" if isinstance(run, str) else ""
+            raise EvaluationError(f"{path}{where}: {problem}; delete it to redo its runs")
+    try:
+        consistent = _same_table(table, _table(meta["label"], records))
+    except (ValueError, TypeError, OverflowError) as error:  # ArrowInvalid, ArrowTypeError
+        raise refuse(" ".join(str(error).split())[:160]) from None
+    if not consistent or {record["controller"]["label"] for record in records} - {meta["label"]}:
         raise refuse("its columns or metadata do not match its records")
     if meta["format"] != PART_FORMAT:
         raise EvaluationError(
@@ -156,13 +192,28 @@ def read_part(path: Path, label: str) -> list[dict[str, Any]]:
     return records
 
 
-def read_json_record(path: Path) -> dict[str, Any]:
-    """One record of the older layout (a JSON file per run)."""
+def read_json_record(path: Path, label: str) -> dict[str, Any]:
+    """One record of controller ``label`` in the older layout (a JSON file per run, ``run`` set from its
+    path where absent); :class:`EvaluationError` (one line) for a file that is not JSON, that holds a record
+    without a field its readers need (:func:`krl.eval.record_schema.record_problem`), or a record of
+    another run or controller."""
+
+    def refuse(reason: str) -> EvaluationError:
+        return EvaluationError(f"{path}: {reason}; delete it to redo that run")
+
     try:
         record = json.loads(path.read_text())
-        record["metrics"]["success"]
-    except (OSError, ValueError, KeyError, TypeError) as error:
-        raise EvaluationError(f"{path}: corrupt result file ({error}); delete it to redo that run") from None
+    except (OSError, ValueError) as error:
+        raise refuse(f"corrupt result file ({' '.join(str(error).split())[:160]})") from None
+    if isinstance(record, dict):
+        record.setdefault("run", json_run(path))
+    problem = record_problem(record)
+    if problem is not None:
+        raise refuse(problem)
+    if record["run"] != json_run(path):
+        raise refuse(f"it holds the record of run {record['run']!r}, not {json_run(path)!r}")
+    if record["controller"]["label"] != label:
+        raise refuse(f"it holds a record of controller {record['controller']['label']!r}, not {label!r}")
     return record
 
 
@@ -225,9 +276,7 @@ def read_runs(folder: Path, label: str | None = None) -> dict[str, StoredRun]:
         found[run] = StoredRun(record, source)
 
     for path in json_files(folder):
-        record = read_json_record(path)
-        record.setdefault("run", json_run(path))
-        add(json_run(path), record, path)
+        add(json_run(path), read_json_record(path, label), path)
     for path in part_files(folder):
         for record in read_part(path, label):
             add(record.get("run"), record, path)
@@ -261,10 +310,25 @@ def remove_leftovers(folder: Path) -> list[Path]:
 
 
 def _next_part(folder: Path, label: str, records: Sequence[dict[str, Any]]) -> Path:
-    """:func:`write_part` for a caller holding the folder's lock."""
+    """:func:`write_part` for a caller holding the folder's lock. The part is read back from its bytes before
+    they are written: a part the readers would refuse is never written (an :class:`EvaluationError` naming
+    the folder and why, nothing written)."""
     taken = [int(path.stem.removeprefix("part-")) for path in part_files(folder) if path.stem[5:].isdigit()]
     path = folder / PART_NAME.format(index=max(taken, default=-1) + 1)
-    write_atomic(path, part_bytes(label, records), durable=True)
+    for record in records:
+        problem = record_problem(record)
+        if problem is not None:
+            raise EvaluationError(f"{folder}: run {record.get('run')}: {problem}; nothing written")
+    try:
+        data = part_bytes(label, records)
+        back = _part_records(io.BytesIO(data), path, label)
+    except (ValueError, TypeError, OverflowError) as error:  # ArrowInvalid, EvaluationError: ValueError
+        raise EvaluationError(
+            f"{folder}: no readable part of these records ({error}); nothing written"
+        ) from None
+    if _texts(back) != _texts(records):
+        raise EvaluationError(f"{folder}: records that do not read back as written; nothing written")
+    write_atomic(path, data, durable=True)
     return path
 
 
@@ -294,7 +358,7 @@ def _consolidate(folder: Path, label: str, absorb_json: bool) -> dict[str, int]:
         return {"runs": len(runs), "parts_merged": 0, "json_removed": 0}
     kept = [stored.record for stored in runs.values() if absorb_json or stored.source.suffix == ".parquet"]
     merged = _next_part(folder, label, kept)
-    if read_part(merged, label) != sorted(kept, key=lambda r: run_order(r["run"])):
+    if _texts(read_part(merged, label)) != _texts(kept):
         raise EvaluationError(f"{merged}: the merged part does not read back as written; nothing was removed")
     for path in [*parts, *files]:
         path.unlink()
