@@ -15,6 +15,7 @@ from krl.cli.common import (
     emit,
     given,
     labelled_policies,
+    process_count,
     run_controller,
 )
 from krl.cli.common import add_run_arguments as add_common_run_arguments
@@ -277,7 +278,7 @@ def _add_train(group) -> None:
     p.add_argument("--steps", type=int, help="env steps to train to (default: the config's total_steps)")
     p.add_argument(
         "--workers",
-        type=int,
+        type=process_count,
         help="environment processes (default: the config's, else one per usable core; may change to resume)",
     )
     p.add_argument("--num-envs", type=int, help="environments per process (default: the config's)")
@@ -446,7 +447,9 @@ def _add_heldout(group) -> None:
         f"{HELDOUT_BATCH} at a time)",
     )
     _add_heldout_choice(p)
-    p.add_argument("--workers", type=int, help="environment processes (default: one per usable core)")
+    p.add_argument(
+        "--workers", type=process_count, help="environment processes (default: one per usable core)"
+    )
     p.add_argument("--out", required=True, help="output folder: one record per policy file, heldout.md/.csv")
     _add_output(p, quiet=True)
     p.set_defaults(func=run_heldout)
