@@ -94,3 +94,23 @@ def test_a_resume_without_config_uses_the_stored_one_and_may_change_the_workers(
     assert json.loads(printed.out)["env_steps"] == 1024  # --json prints JSON alone; the note goes to stderr
     assert printed.err.startswith(f"resuming {run} from 00000000768")
     _refused(capsys, ["--out", str(run), "--num-envs", "3", "--steps", "1024"], run, "num_envs")
+
+
+def test_a_folder_of_other_files_is_refused_and_left_as_it_was(tmp_path, small_config, capsys):
+    config = _config_file(tmp_path, small_config)
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "policy.npz").write_bytes(b"the user's own policy")
+    (mine / "progress.csv").write_text("the user's own log\n")
+    _refused(capsys, ["--out", str(mine), "--config", str(config)], mine, "not a run folder")
+    a_file = tmp_path / "a-file"
+    a_file.write_text("not a folder")
+    _refused(capsys, ["--out", str(a_file), "--config", str(config)], tmp_path, "not a run folder")
+
+
+@pytest.mark.parametrize("seed", ["-1", str(2**32)])
+def test_a_seed_numpy_cannot_take_is_refused_before_anything_is_written(tmp_path, small_config, capsys, seed):
+    config = _config_file(tmp_path, small_config)
+    out = tmp_path / "run"
+    _refused(capsys, ["--out", str(out), "--config", str(config), "--seed", seed], out, f"got {seed}")
+    assert not out.exists()  # so that the same folder takes a valid seed next

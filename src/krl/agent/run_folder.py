@@ -32,6 +32,11 @@ class TrainingError(RuntimeError):
     """A run folder that cannot be used (another config, a corrupt checkpoint); one line."""
 
 
+SEED_LIMIT: int = 2**32
+"""A run's seed is at least 0 and below this: NumPy's global seeding, with which SB3 seeds a run, takes no
+other."""
+
+
 def software() -> dict[str, str]:
     """The versions of krl and of the libraries a run's results depend on."""
     import mujoco
@@ -58,13 +63,21 @@ def open_run(
     device: str,
 ) -> tuple[AgentConfig, dict[str, Any]]:
     """The run's config and run record: read (a resumption, :func:`_reopen_run`) or written (a new run,
-    :func:`_new_run`, on ``device``), with the ``workers`` and ``num_envs`` given."""
+    :func:`_new_run`, on ``device``, into an absent or empty folder), with the ``workers`` and ``num_envs``
+    given. Every argument is checked before anything is written."""
+    if seed is not None and not 0 <= seed < SEED_LIMIT:
+        raise TrainingError(f"the seed must be an integer from 0 to {SEED_LIMIT - 1}, got {seed}")
     overrides = {
         name: value for name, value in (("workers", workers), ("num_envs", num_envs)) if value is not None
     }
     source = None if init_from is None else Path(init_from)
     if (out / "config.json").is_file():
         return _reopen_run(out, config, seed, source, overrides)
+    if out.exists() and not (out.is_dir() and not any(out.iterdir())):
+        raise TrainingError(
+            f"{out} is not a run folder of krl agent train (it has no config.json) and not an empty folder: "
+            "nothing in it is written over; give a new or empty folder"
+        )
     config = replace(config or AgentConfig(), **overrides)
     if config.workers is None:
         config = replace(config, workers=usable_cores())

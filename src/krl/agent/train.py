@@ -178,7 +178,7 @@ def train(
         out: the run folder.
         config: the agent's configuration (default :class:`AgentConfig`); a resumed run's must be its
             stored one, but for ``workers``.
-        seed: the run's seed (default 0); must match a resumed run's.
+        seed: the run's seed, from 0 to 2**32 - 1 (default 0); must match a resumed run's.
         total_steps: env steps to train to, >= 1 (default ``config.total_steps``); may extend a finished
             run.
         progress: show a progress bar.
@@ -197,8 +197,8 @@ def train(
 
     Raises:
         TrainingError: (one line, before anything is written) a run folder or checkpoint that cannot be
-            used, ``total_steps`` or ``update_threads`` below 1, a symmetric PPO whose observation or action
-            the mirror does not cover.
+            used, a folder of other files, a seed out of range, ``total_steps`` or ``update_threads``
+            below 1, a symmetric PPO whose observation or action the mirror does not cover.
     """
     out = Path(out)
     if total_steps is not None and total_steps < 1:

@@ -272,8 +272,10 @@ def register(subparsers) -> None:
 def _add_train(group) -> None:
     """``krl agent train``."""
     p = group.add_parser("train", help="train (or resume) a residual agent with PPO")
-    p.add_argument("--out", required=True, help="run folder; an existing one resumes")
-    p.add_argument("--seed", type=int, help="seed of the run (default 0)")
+    p.add_argument(
+        "--out", required=True, help="run folder: a new or empty one starts a run, a run folder resumes"
+    )
+    p.add_argument("--seed", type=int, help="seed of the run, 0 to 4294967295 (default 0)")
     p.add_argument("--config", help="agent config file (.json or .toml; default: the thesis's agent-rp)")
     p.add_argument("--steps", type=int, help="env steps to train to (default: the config's total_steps)")
     p.add_argument(
