@@ -7,7 +7,7 @@
 | --- | --- |
 | ``config.json`` | the resolved :class:`krl.agent.config.AgentConfig` |
 | ``run.json`` | seed, kernel file and its SHA-256, software; each sitting's start, machine and software |
-| ``checkpoints/<steps>/`` | model, normaliser, ``state.json`` (:mod:`krl.agent.checkpoint`); ``latest`` |
+| ``checkpoints/<steps>/`` | the last two: model, normaliser, ``state.json`` (:mod:`krl.agent.checkpoint`) |
 | ``policy.npz`` | the exported policy (:mod:`krl.agent.policy`), refreshed at every checkpoint |
 | ``progress.csv``, ``events.*`` | the training log, CSV and TensorBoard (:mod:`krl.agent.callbacks`) |
 | ``progress.<steps>.csv`` | the CSV log up to ``<steps>``, set aside by a resumption from there |
@@ -17,11 +17,12 @@ policy, value function, optimiser state and observation normaliser): fine-tuning
 another training distribution. The two must share the kernel, the residual path, the observation and the
 network; ``run.json`` and the exported policy's metadata record the run it started from and its env steps.
 
-Calling it again on the same folder resumes from the newest checkpoint (an interruption loses at most
-``checkpoint_every`` env steps), with the stored config; only the number of worker processes may change
-between sittings. The environments restart from fresh episodes on resumption, seeded from the run's seed
-and the checkpoint's step count, so a resumed run is reproducible but not bit-identical to an
-uninterrupted one; an uninterrupted run with the same seed on the same machine is.
+Calling it again on the same folder resumes from the newest checkpoint that can be read (an interruption loses
+the env steps since the last checkpoint: fewer than ``checkpoint_every`` and one rollout together), with the
+stored config; only the number of worker processes may change between sittings. The environments restart from
+fresh episodes on resumption, seeded from the run's seed and the checkpoint's step count, so a resumed run is
+reproducible but not bit-identical to an uninterrupted one; an uninterrupted run with the same seed on the
+same machine is.
 
 Nothing read from a run folder runs code (:mod:`krl.agent.checkpoint`): a model is built afresh from the
 config, then given a checkpoint's weights, optimiser state, normaliser and counters.
@@ -52,10 +53,10 @@ from krl.agent.process_vec_env import ProcessVecEnv
 from krl.agent.run_folder import (
     TrainingError,
     archive_log,
-    latest_checkpoint,
     open_run,
     read_checked,
     record_sitting,
+    resumable_checkpoint,
     run_kernel,
     software,
     starting_point,
@@ -213,7 +214,7 @@ def train(
         symmetric = mirrors(config, str(resolve_model(config.residual.kernel)))
     config, run = open_run(out, config, seed, init_from, workers, num_envs, device)
     total = config.total_steps if total_steps is None else total_steps
-    latest = latest_checkpoint(out)
+    latest = resumable_checkpoint(out, log)
     done, wall_before = (0, 0.0) if latest is None else read_checked(read_state, latest)
     if done >= total:
         log(f"run {out} already has {done} env steps (of {total}); nothing to do")
@@ -243,14 +244,15 @@ def train(
 def _load_start(model, out: Path, run: dict[str, Any], latest, start, done: int, log) -> None:
     """Put the run's own ``latest`` checkpoint (a resumption, ``done`` env steps in) or the run it
     starts from (``start``, :func:`starting_point`) into ``model``, and say which; nothing for a fresh
-    run."""
+    run. Then set the log past ``done`` aside (:func:`archive_log`; also where a run starts again from
+    step 0, which trains those env steps again)."""
     if latest is not None:
         _resume(model, start)
         log(f"resuming {out} from {latest.name} ({done} env steps)")
-        archive_log(out, done)
     elif start is not None:
         _start_from(model, start)
         log(f"starting {out} from {run['initialized_from']['run']} ({start.num_timesteps} env steps)")
+    archive_log(out, done)
 
 
 def training_device(asked: str) -> str:
