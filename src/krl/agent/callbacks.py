@@ -107,10 +107,7 @@ class ProgressBar(BaseCallback):
         self.task = None
 
     def _on_training_start(self) -> None:
-        # PPO stops at the end of the rollout that reaches the goal, so the bar counts whole rollouts
-        rollout = self.model.n_steps * self.model.n_envs
-        remaining = max(0, self.locals["total_timesteps"] - self.num_timesteps)
-        goal = self.num_timesteps + -(-remaining // rollout) * rollout
+        goal = rollout_end(self.model, self.locals["total_timesteps"])  # the bar counts whole rollouts
         self.bar.start()
         self.task = self.bar.add_task("env steps", total=goal, completed=self.num_timesteps)
 
@@ -124,6 +121,19 @@ class ProgressBar(BaseCallback):
     def close(self) -> None:
         """Take the bar off the terminal (also after an interruption)."""
         self.bar.stop()
+
+
+def rollout_size(model) -> int:
+    """The env steps of one of ``model``'s rollouts (SB3's PPO: ``n_steps`` of each of ``n_envs``)."""
+    return model.n_steps * model.n_envs
+
+
+def rollout_end(model, total_steps: int) -> int:
+    """The env steps at which ``model`` (SB3's PPO) stops when it learns to ``total_steps``: the end of the
+    rollout that reaches them, as it trains whole rollouts (:func:`rollout_size`)."""
+    rollout = rollout_size(model)
+    remaining = max(0, total_steps - model.num_timesteps)
+    return model.num_timesteps + -(-remaining // rollout) * rollout
 
 
 class StopOnSignal(BaseCallback):

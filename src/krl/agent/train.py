@@ -44,7 +44,15 @@ from stable_baselines3.common.logger import configure
 from stable_baselines3.common.vec_env import VecNormalize
 from threadpoolctl import threadpool_limits
 
-from krl.agent.callbacks import Checkpointer, Clock, EpisodeLog, ProgressBar, StopOnSignal
+from krl.agent.callbacks import (
+    Checkpointer,
+    Clock,
+    EpisodeLog,
+    ProgressBar,
+    StopOnSignal,
+    rollout_end,
+    rollout_size,
+)
 from krl.agent.checkpoint import Checkpoint, read_state
 from krl.agent.config import AgentConfig
 from krl.agent.curriculum import PushCurriculum, saved_ceiling
@@ -372,9 +380,13 @@ def _learn(
     curriculum: PushCurriculum | None = None,
     callbacks: Sequence[BaseCallback] = (),
 ) -> dict[str, Any]:
-    """Train ``model`` to ``total`` env steps with the logging, (push ``curriculum``,) checkpointing and
-    progress callbacks; Ctrl-C or SIGTERM saves a checkpoint and re-raises. Returns the summary of
-    :func:`train`."""
+    """Train ``model`` to ``total`` env steps (to the end of the rollout that reaches them, said in one
+    line where that is further) with the logging, (push ``curriculum``,) checkpointing and progress
+    callbacks; Ctrl-C or SIGTERM saves a checkpoint and re-raises. Returns the summary of :func:`train`."""
+    stop = rollout_end(model, total)
+    if stop > total:
+        rollout = rollout_size(model)
+        log(f"PPO trains whole rollouts of {rollout} env steps: this sitting trains to {stop}, not {total}")
     curricula = [] if curriculum is None else [curriculum]
     extra_state = dict if curriculum is None else curriculum.state
     checkpointer = Checkpointer(out, config, run, clock, software(), extra_state)

@@ -277,7 +277,11 @@ def _add_train(group) -> None:
     )
     p.add_argument("--seed", type=int, help="seed of the run, 0 to 4294967295 (default 0)")
     p.add_argument("--config", help="agent config file (.json or .toml; default: the thesis's agent-rp)")
-    p.add_argument("--steps", type=int, help="env steps to train to (default: the config's total_steps)")
+    p.add_argument(
+        "--steps",
+        type=int,
+        help="env steps to train to, up to the end of that rollout (default: the config's total_steps)",
+    )
     p.add_argument(
         "--workers",
         type=process_count,
