@@ -214,3 +214,12 @@ def test_a_sigterm_a_finaliser_swallowed_still_stops_training(tmp_path, small_co
         train(tmp_path / "run", config, seed=3, progress=False, log=lambda _: None)
     assert swallowed == []
     assert int((tmp_path / "run" / "checkpoints" / "latest").read_text()) <= config.num_envs  # its first step
+
+
+def test_a_goal_within_a_rollout_says_it_trains_the_whole_rollout(tmp_path, small_config):
+    """Issue 61: ``--steps 2000`` trained a whole rollout of 200 000 env steps without a word."""
+    messages: list[str] = []
+    out = tmp_path / "run"
+    summary = train(out, small_config, seed=1, total_steps=300, progress=False, log=messages.append)
+    assert messages == ["PPO trains whole rollouts of 256 env steps: this sitting trains to 512, not 300"]
+    assert summary["env_steps"] == 512

@@ -56,8 +56,8 @@ def test_training_errors_are_one_line_and_write_nothing(tmp_path, small_config, 
     (tmp_path / "kernel.json").write_text('{"residual": {"kernel": "nosuchkernel"}}')
     argv = ["--out", str(fresh), "--config", str(tmp_path / "kernel.json")]
     _refused(capsys, argv, fresh, "nosuchkernel")
-    model = run / "checkpoints" / "00000000512" / "model.zip"
-    model.write_bytes(model.read_bytes()[:1000])
+    for model in (run / "checkpoints").glob("*/model.zip"):  # both it keeps: none to resume from
+        model.write_bytes(model.read_bytes()[:1000])
     _refused(capsys, ["--out", str(run), "--steps", "768"], run, "corrupt")
 
 
@@ -94,3 +94,23 @@ def test_a_resume_without_config_uses_the_stored_one_and_may_change_the_workers(
     assert json.loads(printed.out)["env_steps"] == 1024  # --json prints JSON alone; the note goes to stderr
     assert printed.err.startswith(f"resuming {run} from 00000000768")
     _refused(capsys, ["--out", str(run), "--num-envs", "3", "--steps", "1024"], run, "num_envs")
+
+
+def test_a_folder_of_other_files_is_refused_and_left_as_it_was(tmp_path, small_config, capsys):
+    config = _config_file(tmp_path, small_config)
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "policy.npz").write_bytes(b"the user's own policy")
+    (mine / "progress.csv").write_text("the user's own log\n")
+    _refused(capsys, ["--out", str(mine), "--config", str(config)], mine, "not a run folder")
+    a_file = tmp_path / "a-file"
+    a_file.write_text("not a folder")
+    _refused(capsys, ["--out", str(a_file), "--config", str(config)], tmp_path, "not a run folder")
+
+
+@pytest.mark.parametrize("seed", ["-1", str(2**32)])
+def test_a_seed_numpy_cannot_take_is_refused_before_anything_is_written(tmp_path, small_config, capsys, seed):
+    config = _config_file(tmp_path, small_config)
+    out = tmp_path / "run"
+    _refused(capsys, ["--out", str(out), "--config", str(config), "--seed", seed], out, f"got {seed}")
+    assert not out.exists()  # so that the same folder takes a valid seed next

@@ -7,6 +7,7 @@ import base64
 import csv
 import json
 import pickle
+import shutil
 import zipfile
 from pathlib import Path
 
@@ -67,7 +68,8 @@ def test_a_crafted_model_archive_runs_nothing_on_resume(tmp_path, small_config):
     _rewrite_model_data(model, "observation_space", pickle.dumps(_Payload(marker)))
     train(out, total_steps=512, progress=False, log=lambda _: None)  # a field krl does not need: unread
     assert not marker.exists()
-    _rewrite_model_data(_checkpoint(out) / "model.zip", "ep_info_buffer", pickle.dumps(_Payload(marker)))
+    for model in (out / "checkpoints").glob("*/model.zip"):  # both it keeps: none to resume from
+        _rewrite_model_data(model, "ep_info_buffer", pickle.dumps(_Payload(marker)))
     with pytest.raises(TrainingError) as caught:
         train(out, total_steps=768, progress=False, log=lambda _: None)
     assert not marker.exists()
@@ -129,3 +131,94 @@ def test_every_sitting_records_its_machine_in_the_run_and_the_policy(tmp_path, s
     assert load_policy(out / "policy.npz").metadata["training"]["sittings"] == sittings
     train(out, total_steps=512, progress=False, log=lambda _: None)  # nothing to do: no sitting
     assert json.loads((out / "run.json").read_text())["sittings"] == sittings
+
+
+def _joined_log(run: Path) -> list[int]:
+    """The env steps of a run's log segments joined in the order ``krl agent curves`` joins them."""
+    return [
+        step
+        for path in [*sorted(run.glob("progress.*.csv")), run / "progress.csv"]
+        for step in _logged_steps(path)
+    ]
+
+
+def _checkpoint_names(run: Path) -> list[str]:
+    return sorted(path.name for path in (run / "checkpoints").iterdir() if path.is_dir())
+
+
+def test_a_run_keeps_two_checkpoints_and_resumes_from_the_newest_readable(tmp_path, small_config):
+    """Issue 61, M8: with one checkpoint kept, a damaged one (deleted) sent the run back to step 0, over
+    its log, and ``krl agent curves`` drew those env steps twice."""
+    out = tmp_path / "run"
+    train(out, small_config, seed=1, total_steps=768, progress=False, log=lambda _: None)
+    assert _checkpoint_names(out) == ["00000000512", "00000000768"]
+    train(out, total_steps=1024, progress=False, log=lambda _: None)  # resumed at 768: a log segment
+    assert _checkpoint_names(out) == ["00000000768", "00000001024"]
+    (out / "checkpoints" / "00000001024" / "model.zip").write_bytes(b"damaged")
+    messages: list[str] = []
+    train(out, total_steps=1280, progress=False, log=messages.append)
+    assert "00000001024 is corrupt" in messages[0] and "\n" not in messages[0]
+    assert messages[1] == f"resuming {out} from 00000000768 (768 env steps)"
+    assert _joined_log(out) == [256 * k for k in range(1, 6)]  # each env step once
+    assert _checkpoint_names(out) == ["00000001024", "00000001280"]  # the damaged one trained again
+
+
+def test_a_run_started_again_from_step_0_keeps_no_log_of_the_first_start(tmp_path, small_config):
+    out = tmp_path / "run"
+    train(out, small_config, seed=1, total_steps=512, progress=False, log=lambda _: None)
+    train(out, total_steps=768, progress=False, log=lambda _: None)  # progress.00000000512.csv
+    shutil.rmtree(out / "checkpoints")  # what a user does with checkpoints that cannot be read
+    train(out, total_steps=768, progress=False, log=lambda _: None)  # from step 0 again
+    assert [path.name for path in out.glob("progress*.csv")] == ["progress.csv"]
+    assert _joined_log(out) == [256, 512, 768]
+
+
+def test_a_sitting_from_an_earlier_checkpoint_drops_the_log_segments_past_it(tmp_path, small_config):
+    out = tmp_path / "run"
+    train(out, small_config, seed=1, total_steps=768, progress=False, log=lambda _: None)
+    # what a sitting resumed at 768 and killed before its next checkpoint leaves, with 768 damaged since
+    log = out / "progress.csv"
+    log.rename(out / "progress.00000000768.csv")
+    with open(out / "progress.00000000768.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    with open(log, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerow({**rows[-1], "time/total_timesteps": "1024"})
+    (out / "checkpoints" / "00000000768" / "model.zip").write_bytes(b"damaged")
+    train(out, total_steps=1024, progress=False, log=lambda _: None)  # from 512
+    assert sorted(path.name for path in out.glob("progress*.csv")) == [
+        "progress.00000000512.csv",
+        "progress.csv",
+    ]
+    assert _logged_steps(out / "progress.00000000512.csv") == [256, 512]
+    assert _logged_steps(log) == [768, 1024]
+
+
+def test_a_crafted_weights_file_is_refused_without_a_librarys_advice_to_load_it_unsafely(
+    tmp_path, small_config
+):
+    """Issue 61: the error repeated PyTorch's advice to load the file with ``weights_only=False``."""
+    import io
+
+    import torch
+
+    from krl.agent.checkpoint import CheckpointError, read_checkpoint
+
+    out = tmp_path / "run"
+    train(out, small_config, seed=1, total_steps=256, progress=False, log=lambda _: None)
+    model = _checkpoint(out) / "model.zip"
+    marker = tmp_path / "ran"
+    crafted = io.BytesIO()
+    torch.save({"weights": _Payload(marker)}, crafted)
+    with zipfile.ZipFile(model) as archive:
+        entries = {entry: archive.read(entry) for entry in archive.namelist()}
+    entries["policy.pth"] = crafted.getvalue()
+    with zipfile.ZipFile(model, "w") as archive:
+        for entry, content in entries.items():
+            archive.writestr(entry, content)
+    with pytest.raises(CheckpointError) as caught:
+        read_checkpoint(_checkpoint(out))
+    message = str(caught.value)
+    assert not marker.exists()
+    assert message == f"checkpoint {_checkpoint(out)}: model.zip refers to io.open, which krl refuses to load"

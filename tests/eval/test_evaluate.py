@@ -328,9 +328,10 @@ def test_two_different_runs_never_share_a_result_file(tmp_path, tiny):
 
 def test_a_refused_evaluation_writes_nothing(tmp_path, tiny, capsys):
     out = tmp_path / "out"
-    assert main([*evaluate_argv(out, "--controller", "kernel", "--course", str(tiny)), "--workers", "0"]) == 2
+    with pytest.raises(SystemExit) as stop:  # a usage error (krl.cli.common.process_count)
+        main([*evaluate_argv(out, "--controller", "kernel", "--course", str(tiny)), "--workers", "0"])
     err = capsys.readouterr().err
-    assert "workers must be >= 1" in err and err.count("\n") == 1 and not out.exists()
+    assert stop.value.code == 2 and "at least 1, got 0" in err and err.count("\n") == 1 and not out.exists()
     assert main(evaluate_argv(out, "--controller", "kernel", "--course", str(tiny))) == 0
     capsys.readouterr()
     tiny.write_text(TINY.replace("[3.0, 0.0]", "[4.0, 0.0]"))  # same name, other course

@@ -20,7 +20,13 @@ from typing import Any
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
-from krl.agent.checkpoint import NORMALISER_FILE, NormaliserState
+from krl.agent.checkpoint import (
+    KEPT_CHECKPOINTS,
+    NORMALISER_FILE,
+    NormaliserState,
+    checkpoint_folders,
+    steps_name,
+)
 from krl.agent.config import AgentConfig
 from krl.agent.network import export_policy
 from krl.util.output import write_atomic
@@ -101,10 +107,7 @@ class ProgressBar(BaseCallback):
         self.task = None
 
     def _on_training_start(self) -> None:
-        # PPO stops at the end of the rollout that reaches the goal, so the bar counts whole rollouts
-        rollout = self.model.n_steps * self.model.n_envs
-        remaining = max(0, self.locals["total_timesteps"] - self.num_timesteps)
-        goal = self.num_timesteps + -(-remaining // rollout) * rollout
+        goal = rollout_end(self.model, self.locals["total_timesteps"])  # the bar counts whole rollouts
         self.bar.start()
         self.task = self.bar.add_task("env steps", total=goal, completed=self.num_timesteps)
 
@@ -118,6 +121,19 @@ class ProgressBar(BaseCallback):
     def close(self) -> None:
         """Take the bar off the terminal (also after an interruption)."""
         self.bar.stop()
+
+
+def rollout_size(model) -> int:
+    """The env steps of one of ``model``'s rollouts (SB3's PPO: ``n_steps`` of each of ``n_envs``)."""
+    return model.n_steps * model.n_envs
+
+
+def rollout_end(model, total_steps: int) -> int:
+    """The env steps at which ``model`` (SB3's PPO) stops when it learns to ``total_steps``: the end of the
+    rollout that reaches them, as it trains whole rollouts (:func:`rollout_size`)."""
+    rollout = rollout_size(model)
+    remaining = max(0, total_steps - model.num_timesteps)
+    return model.num_timesteps + -(-remaining // rollout) * rollout
 
 
 class StopOnSignal(BaseCallback):
@@ -171,11 +187,12 @@ class Checkpointer(BaseCallback):
 
     def save(self, model, final: bool = False) -> Path:
         """Save the model, its normaliser and the exported policy; the newest checkpoint is named in
-        ``checkpoints/latest`` only once all of it is written. Returns the checkpoint's folder."""
+        ``checkpoints/latest`` only once all of it is written, and then older ones are removed
+        (:func:`remove_old_checkpoints`). Returns the checkpoint's folder."""
         steps = int(model.num_timesteps)
         directory = self.out / "checkpoints"
         directory.mkdir(parents=True, exist_ok=True)
-        name = f"{steps:011d}"
+        name = steps_name(steps)
         temporary = directory / f".{name}.tmp"
         temporary.mkdir(exist_ok=True)
         model.save(str(temporary / "model.zip"))
@@ -215,8 +232,11 @@ class Checkpointer(BaseCallback):
         return {"kernel_sha256": self.run["kernel_sha256"], "training": training, "software": self.software}
 
 
-def remove_old_checkpoints(directory: Path, keep: str) -> None:
-    """Delete every checkpoint folder in ``directory`` but ``keep``."""
+def remove_old_checkpoints(directory: Path, saved: str) -> None:
+    """Delete every folder in ``directory`` but the checkpoint ``saved`` and the newest before it, up to
+    :data:`KEPT_CHECKPOINTS` in all: older ones, unfinished ones, and any past ``saved`` (left by a run that
+    resumed before a checkpoint it could not read, and trained those env steps again)."""
+    kept = [path.name for path in checkpoint_folders(directory) if path.name <= saved][:KEPT_CHECKPOINTS]
     for child in directory.iterdir():
-        if child.is_dir() and child.name != keep:
+        if child.is_dir() and child.name not in kept:
             shutil.rmtree(child, ignore_errors=True)

@@ -1,7 +1,8 @@
 """A training checkpoint on disk, and reading it back without running code from it.
 
 A checkpoint ``checkpoints/<steps>/`` (written whole by
-:class:`krl.agent.callbacks.Checkpointer`, then named in ``checkpoints/latest``) holds:
+:class:`krl.agent.callbacks.Checkpointer`, then named in ``checkpoints/latest``; a run keeps its last
+:data:`KEPT_CHECKPOINTS`) holds:
 
 * ``model.zip``: SB3's archive (``PPO.save``): the policy's and the optimiser's state dicts and the
   algorithm's fields (JSON, some of them cloudpickled). :func:`read_checkpoint` reads the state dicts
@@ -24,6 +25,7 @@ import base64
 import io
 import json
 import pickle
+import re
 import zipfile
 from collections import deque
 from dataclasses import dataclass
@@ -39,6 +41,10 @@ from krl.util.output import npz_bytes, write_atomic
 class CheckpointError(ValueError):
     """A checkpoint that cannot be read (corrupt, or a pickle that refers to anything but data); one line."""
 
+
+KEPT_CHECKPOINTS: int = 2
+"""The checkpoints a run keeps, its newest ones: a newest one that cannot be read leaves one before it to
+resume from."""
 
 NORMALISER_FILE = "normaliser.npz"
 """A checkpoint's normaliser (:class:`NormaliserState`)."""
@@ -275,6 +281,21 @@ class Checkpoint:
     normaliser: NormaliserState | None
 
 
+def steps_name(steps: int) -> str:
+    """``steps`` env steps as the names of checkpoint folders and of a run's log segments
+    (``progress.<steps>.csv``) write them: zero-padded, so that names sort as steps."""
+    return f"{steps:011d}"
+
+
+def checkpoint_folders(directory: Path) -> list[Path]:
+    """The checkpoint folders in a run's ``checkpoints/`` (named by :func:`steps_name`), newest first; none
+    where it does not exist."""
+    if not directory.is_dir():
+        return []
+    pattern = "[0-9]" * len(steps_name(0))
+    return sorted((path for path in directory.glob(pattern) if path.is_dir()), reverse=True)
+
+
 def read_state(checkpoint: Path) -> tuple[int, float]:
     """A checkpoint's env steps and wall seconds (its ``state.json``); CheckpointError if unreadable."""
     try:
@@ -302,9 +323,22 @@ def read_checkpoint(checkpoint: Path) -> Checkpoint:
             raise CheckpointError(f"checkpoint {checkpoint}: model.zip's ep_info_buffer holds no episodes")
     except CheckpointError as error:
         raise CheckpointError(f"checkpoint {checkpoint}: model.zip's ep_info_buffer: {error}") from None
+    except pickle.UnpicklingError as error:
+        raise _refused_weights(checkpoint, error) from None
     except Exception as error:  # zipfile, JSON, base64, pickle and torch raise many types
         raise _corrupt(checkpoint, error) from None
     return Checkpoint(checkpoint, steps, wall, params, n_updates, episodes, read_normaliser(checkpoint))
+
+
+def _refused_weights(checkpoint: Path, error: pickle.UnpicklingError) -> CheckpointError:
+    """The one-line error for a model.zip whose weights ``torch.load(weights_only=True)`` refused: what
+    they refer to and that krl refuses it (not PyTorch's advice to load them unsafely), else
+    :func:`_corrupt`."""
+    if not str(error).startswith("Weights only load failed"):
+        return _corrupt(checkpoint, error)
+    refused = re.search(r"GLOBAL ([\w.]+)", str(error))
+    what = f"refers to {refused.group(1)}" if refused else "holds more than weights"
+    return CheckpointError(f"checkpoint {checkpoint}: model.zip {what}, which krl refuses to load")
 
 
 def _corrupt(checkpoint: Path, error: Exception) -> CheckpointError:

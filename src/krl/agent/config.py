@@ -568,7 +568,8 @@ class AgentConfig:
     total_steps: int = 20_000_000
     """Env steps to train for (thesis: 2e7)."""
     checkpoint_every: int = 1_000_000
-    """Env steps between checkpoints (an interruption loses at most this much)."""
+    """Env steps between checkpoints, taken at the end of the rollout that passes each multiple (an
+    interruption loses fewer than this and one rollout together)."""
 
     def __post_init__(self) -> None:
         for name in ("num_envs", "workers", "total_steps", "checkpoint_every"):

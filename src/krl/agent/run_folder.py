@@ -15,11 +15,18 @@ from __future__ import annotations
 import csv
 import json
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from krl.agent.checkpoint import Checkpoint, CheckpointError, read_checkpoint
+from krl.agent.checkpoint import (
+    Checkpoint,
+    CheckpointError,
+    checkpoint_folders,
+    read_checkpoint,
+    steps_name,
+)
 from krl.agent.config import AgentConfig, AgentConfigError
 from krl.agent.curves import STEPS_COLUMN
 from krl.util.hashing import file_sha256
@@ -30,6 +37,11 @@ from krl.util.parallel import usable_cores
 
 class TrainingError(RuntimeError):
     """A run folder that cannot be used (another config, a corrupt checkpoint); one line."""
+
+
+SEED_LIMIT: int = 2**32
+"""A run's seed is at least 0 and below this: NumPy's global seeding, with which SB3 seeds a run, takes no
+other."""
 
 
 def software() -> dict[str, str]:
@@ -58,13 +70,21 @@ def open_run(
     device: str,
 ) -> tuple[AgentConfig, dict[str, Any]]:
     """The run's config and run record: read (a resumption, :func:`_reopen_run`) or written (a new run,
-    :func:`_new_run`, on ``device``), with the ``workers`` and ``num_envs`` given."""
+    :func:`_new_run`, on ``device``, into an absent or empty folder), with the ``workers`` and ``num_envs``
+    given. Every argument is checked before anything is written."""
+    if seed is not None and not 0 <= seed < SEED_LIMIT:
+        raise TrainingError(f"the seed must be an integer from 0 to {SEED_LIMIT - 1}, got {seed}")
     overrides = {
         name: value for name, value in (("workers", workers), ("num_envs", num_envs)) if value is not None
     }
     source = None if init_from is None else Path(init_from)
     if (out / "config.json").is_file():
         return _reopen_run(out, config, seed, source, overrides)
+    if out.exists() and not (out.is_dir() and not any(out.iterdir())):
+        raise TrainingError(
+            f"{out} is not a run folder of krl agent train (it has no config.json) and not an empty folder: "
+            "nothing in it is written over; give a new or empty folder"
+        )
     config = replace(config or AgentConfig(), **overrides)
     if config.workers is None:
         config = replace(config, workers=usable_cores())
@@ -176,6 +196,25 @@ def latest_checkpoint(out: Path) -> Path | None:
     return path
 
 
+def resumable_checkpoint(out: Path, log: Callable[[str], None]) -> Path | None:
+    """The run's newest checkpoint that can be read whole (:func:`read_checkpoint`), ``log`` told in one
+    line of each newer one passed over; None where the run has none. TrainingError (one line) where it has
+    checkpoints but none can be read."""
+    errors = []
+    for folder in checkpoint_folders(out / "checkpoints"):
+        try:
+            read_checkpoint(folder)
+        except CheckpointError as error:
+            errors.append(str(error))
+            continue
+        for error in errors:
+            log(f"{error}: passed over")
+        return folder
+    if errors:
+        raise TrainingError(f"{errors[0]}, and no checkpoint before it can be read either")
+    return None
+
+
 def read_checked(reader, checkpoint: Path):
     """``reader(checkpoint)`` (:func:`read_state`, :func:`read_checkpoint`) with its error as a
     TrainingError."""
@@ -244,17 +283,28 @@ def run_kernel(out: Path, config: AgentConfig, run: dict[str, Any]) -> str:
 
 
 def archive_log(out: Path, steps: int) -> None:
-    """Before a resumption from the checkpoint at ``steps``, set ``progress.csv`` aside as
-    ``progress.<steps>.csv`` (SB3's CSV logger starts its file afresh) without its rows past ``steps``,
-    which are trained again. A log with no row left (a second resumption from one checkpoint) is dropped,
-    keeping the archive the first one made."""
-    log = out / "progress.csv"
-    if not log.is_file():
+    """Before a sitting that trains on from ``steps`` env steps (0: from the start), set ``progress.csv``
+    aside as ``progress.<steps>.csv`` (SB3's CSV logger starts its file afresh) without its rows past
+    ``steps``, which are trained again; so the joined segments hold every env step once. A segment set
+    aside past ``steps`` (by a resumption from a later checkpoint, since passed over or removed) is
+    trained again too: it gives its rows up to ``steps`` instead of ``progress.csv``, whose rows all lie
+    past it. A log with no row left (a second resumption from one checkpoint) is dropped, keeping the
+    segment the first one made."""
+    later = [path for path in sorted(out.glob("progress.*.csv")) if _segment_steps(path) > steps]
+    logs = [path for path in (*later, out / "progress.csv") if path.is_file()]
+    if not logs:
         return
-    lines = log.read_text().splitlines(keepends=True)
+    lines = logs[0].read_text().splitlines(keepends=True)  # only the first holds rows up to ``steps``
     if lines:
         column = next(csv.reader(lines[:1])).index(STEPS_COLUMN)
         kept = [line for line in lines[1:] if float(next(csv.reader([line]))[column]) <= steps]
         if kept:
-            write_atomic(out / f"progress.{steps:011d}.csv", "".join([lines[0], *kept]))
-    log.unlink()
+            write_atomic(out / f"progress.{steps_name(steps)}.csv", "".join([lines[0], *kept]))
+    for log in logs:
+        log.unlink()
+
+
+def _segment_steps(path: Path) -> int:
+    """The env steps of a log segment ``progress.<steps>.csv``; -1 for any other name (never past any)."""
+    middle = path.name.removeprefix("progress.").removesuffix(".csv")
+    return int(middle) if middle.isdigit() else -1

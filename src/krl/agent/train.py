@@ -7,7 +7,7 @@
 | --- | --- |
 | ``config.json`` | the resolved :class:`krl.agent.config.AgentConfig` |
 | ``run.json`` | seed, kernel file and its SHA-256, software; each sitting's start, machine and software |
-| ``checkpoints/<steps>/`` | model, normaliser, ``state.json`` (:mod:`krl.agent.checkpoint`); ``latest`` |
+| ``checkpoints/<steps>/`` | the last two: model, normaliser, ``state.json`` (:mod:`krl.agent.checkpoint`) |
 | ``policy.npz`` | the exported policy (:mod:`krl.agent.policy`), refreshed at every checkpoint |
 | ``progress.csv``, ``events.*`` | the training log, CSV and TensorBoard (:mod:`krl.agent.callbacks`) |
 | ``progress.<steps>.csv`` | the CSV log up to ``<steps>``, set aside by a resumption from there |
@@ -17,11 +17,12 @@ policy, value function, optimiser state and observation normaliser): fine-tuning
 another training distribution. The two must share the kernel, the residual path, the observation and the
 network; ``run.json`` and the exported policy's metadata record the run it started from and its env steps.
 
-Calling it again on the same folder resumes from the newest checkpoint (an interruption loses at most
-``checkpoint_every`` env steps), with the stored config; only the number of worker processes may change
-between sittings. The environments restart from fresh episodes on resumption, seeded from the run's seed
-and the checkpoint's step count, so a resumed run is reproducible but not bit-identical to an
-uninterrupted one; an uninterrupted run with the same seed on the same machine is.
+Calling it again on the same folder resumes from the newest checkpoint that can be read (an interruption loses
+the env steps since the last checkpoint: fewer than ``checkpoint_every`` and one rollout together), with the
+stored config; only the number of worker processes may change between sittings. The environments restart from
+fresh episodes on resumption, seeded from the run's seed and the checkpoint's step count, so a resumed run is
+reproducible but not bit-identical to an uninterrupted one; an uninterrupted run with the same seed on the
+same machine is.
 
 Nothing read from a run folder runs code (:mod:`krl.agent.checkpoint`): a model is built afresh from the
 config, then given a checkpoint's weights, optimiser state, normaliser and counters.
@@ -43,7 +44,15 @@ from stable_baselines3.common.logger import configure
 from stable_baselines3.common.vec_env import VecNormalize
 from threadpoolctl import threadpool_limits
 
-from krl.agent.callbacks import Checkpointer, Clock, EpisodeLog, ProgressBar, StopOnSignal
+from krl.agent.callbacks import (
+    Checkpointer,
+    Clock,
+    EpisodeLog,
+    ProgressBar,
+    StopOnSignal,
+    rollout_end,
+    rollout_size,
+)
 from krl.agent.checkpoint import Checkpoint, read_state
 from krl.agent.config import AgentConfig
 from krl.agent.curriculum import PushCurriculum, saved_ceiling
@@ -53,10 +62,10 @@ from krl.agent.process_vec_env import ProcessVecEnv
 from krl.agent.run_folder import (
     TrainingError,
     archive_log,
-    latest_checkpoint,
     open_run,
     read_checked,
     record_sitting,
+    resumable_checkpoint,
     run_kernel,
     software,
     starting_point,
@@ -194,7 +203,7 @@ def train(
         out: the run folder.
         config: the agent's configuration (default :class:`AgentConfig`); a resumed run's must be its
             stored one, but for ``workers``.
-        seed: the run's seed (default 0); must match a resumed run's.
+        seed: the run's seed, from 0 to 2**32 - 1 (default 0); must match a resumed run's.
         total_steps: env steps to train to, >= 1 (default ``config.total_steps``); may extend a finished
             run.
         progress: show a progress bar.
@@ -213,8 +222,8 @@ def train(
 
     Raises:
         TrainingError: (one line, before anything is written) a run folder or checkpoint that cannot be
-            used, ``total_steps`` or ``update_threads`` below 1, a symmetric PPO whose observation or action
-            the mirror does not cover.
+            used, a folder of other files, a seed out of range, ``total_steps`` or ``update_threads``
+            below 1, a symmetric PPO whose observation or action the mirror does not cover.
     """
     out = Path(out)
     if total_steps is not None and total_steps < 1:
@@ -229,7 +238,7 @@ def train(
         symmetric = mirrors(config, str(resolve_model(config.residual.kernel)))
     config, run = open_run(out, config, seed, init_from, workers, num_envs, device)
     total = config.total_steps if total_steps is None else total_steps
-    latest = latest_checkpoint(out)
+    latest = resumable_checkpoint(out, log)
     done, wall_before = (0, 0.0) if latest is None else read_checked(read_state, latest)
     if done >= total:
         log(f"run {out} already has {done} env steps (of {total}); nothing to do")
@@ -257,14 +266,15 @@ def train(
 def _load_start(model, out: Path, run: dict[str, Any], latest, start, done: int, log) -> None:
     """Put the run's own ``latest`` checkpoint (a resumption, ``done`` env steps in) or the run it
     starts from (``start``, :func:`starting_point`) into ``model``, and say which; nothing for a fresh
-    run."""
+    run. Then set the log past ``done`` aside (:func:`archive_log`; also where a run starts again from
+    step 0, which trains those env steps again)."""
     if latest is not None:
         _resume(model, start)
         log(f"resuming {out} from {latest.name} ({done} env steps)")
-        archive_log(out, done)
     elif start is not None:
         _start_from(model, start)
         log(f"starting {out} from {run['initialized_from']['run']} ({start.num_timesteps} env steps)")
+    archive_log(out, done)
 
 
 def training_device(asked: str) -> str:
@@ -390,9 +400,14 @@ def _learn(
     curricula: Sequence[BaseCallback] = (),
     callbacks: Sequence[BaseCallback] = (),
 ) -> dict[str, Any]:
-    """Train ``model`` to ``total`` env steps with the logging, ``curricula`` (:func:`_curricula`),
-    checkpointing and progress callbacks; Ctrl-C or SIGTERM saves a checkpoint and re-raises. Returns the
-    summary of :func:`train`."""
+    """Train ``model`` to ``total`` env steps (to the end of the rollout that reaches them, said in one
+    line where that is further) with the logging, ``curricula`` (:func:`_curricula`), checkpointing and
+    progress callbacks; Ctrl-C or SIGTERM saves a checkpoint and re-raises. Returns the summary of
+    :func:`train`."""
+    stop = rollout_end(model, total)
+    if stop > total:
+        rollout = rollout_size(model)
+        log(f"PPO trains whole rollouts of {rollout} env steps: this sitting trains to {stop}, not {total}")
 
     def extra_state() -> dict[str, Any]:
         return {key: value for curriculum in curricula for key, value in curriculum.state().items()}

@@ -23,7 +23,7 @@ from krl.agent.action import SATURATED
 from krl.control.types import JointCommand
 from krl.eval.episodes import PushSweep
 from krl.robots.a1.constants import LEG_NAMES, TRUNK_HALF_SIZE
-from krl.sim.pushes import Push
+from krl.sim.pushes import Push, check_push_magnitude
 from krl.sim.state import RobotState
 from krl.util.output import npz_bytes, write_atomic
 from krl.util.timing import CONTROL_DT
@@ -98,8 +98,7 @@ class PushProbe:
             raise ValueError(f"unknown push direction {self.direction!r}; known: {known}")
         if self.point not in PROBE_POINTS:
             raise ValueError(f"unknown push point {self.point!r}; known: {', '.join(PROBE_POINTS)}")
-        if not (np.isfinite(self.magnitude) and self.magnitude >= 0):
-            raise ValueError(f"push magnitude must be a finite number >= 0 N, got {self.magnitude}")
+        check_push_magnitude(self.magnitude)
         if not 0 <= self.start_time < self.sweep.time_limit:
             raise ValueError(
                 f"push start time must lie in [0, {self.sweep.time_limit:g}) s, got {self.start_time}"

@@ -15,6 +15,7 @@ from krl.cli.common import (
     emit,
     given,
     labelled_policies,
+    process_count,
     run_controller,
 )
 from krl.cli.common import add_run_arguments as add_common_run_arguments
@@ -271,13 +272,19 @@ def register(subparsers) -> None:
 def _add_train(group) -> None:
     """``krl agent train``."""
     p = group.add_parser("train", help="train (or resume) a residual agent with PPO")
-    p.add_argument("--out", required=True, help="run folder; an existing one resumes")
-    p.add_argument("--seed", type=int, help="seed of the run (default 0)")
+    p.add_argument(
+        "--out", required=True, help="run folder: a new or empty one starts a run, a run folder resumes"
+    )
+    p.add_argument("--seed", type=int, help="seed of the run, 0 to 4294967295 (default 0)")
     p.add_argument("--config", help="agent config file (.json or .toml; default: the thesis's agent-rp)")
-    p.add_argument("--steps", type=int, help="env steps to train to (default: the config's total_steps)")
+    p.add_argument(
+        "--steps",
+        type=int,
+        help="env steps to train to, up to the end of that rollout (default: the config's total_steps)",
+    )
     p.add_argument(
         "--workers",
-        type=int,
+        type=process_count,
         help="environment processes (default: the config's, else one per usable core; may change to resume)",
     )
     p.add_argument("--num-envs", type=int, help="environments per process (default: the config's)")
@@ -446,7 +453,9 @@ def _add_heldout(group) -> None:
         f"{HELDOUT_BATCH} at a time)",
     )
     _add_heldout_choice(p)
-    p.add_argument("--workers", type=int, help="environment processes (default: one per usable core)")
+    p.add_argument(
+        "--workers", type=process_count, help="environment processes (default: one per usable core)"
+    )
     p.add_argument("--out", required=True, help="output folder: one record per policy file, heldout.md/.csv")
     _add_output(p, quiet=True)
     p.set_defaults(func=run_heldout)

@@ -266,6 +266,22 @@ LABEL = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]*")
 """A label given as ``LABEL=…``: letters, digits, '.', '_' or '-', usable as a folder name."""
 
 
+def process_count(text: str) -> int:
+    """The ``type`` of every option that sets a number of processes (``--workers``, ``--jobs``): an integer
+    >= 1, capped at the usable cores with a note on stderr (:func:`krl.util.parallel.worker_processes`);
+    a usage error (one line) otherwise."""
+    from krl.util.parallel import worker_processes
+
+    try:
+        asked = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    try:
+        return worker_processes(asked, lambda note: print(f"krl: note: {note}", file=sys.stderr))
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def labelled_policies(texts: Sequence[str], resolve: Callable[[str], tuple[str, Any]]) -> dict[str, Any]:
     """``--policy [LABEL=]POLICY`` options -> ``{label: resolve(POLICY)[1]}``; the label defaults to the name
     ``resolve`` gives (``krl.agent.policy.one_policy`` or ``policy_artifacts``). A CliError (one line) for a

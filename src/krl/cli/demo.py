@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from krl.cli.common import default_of, emit, given
+from krl.cli.common import default_of, emit, given, process_count
 
 
 def run_demo(args: argparse.Namespace) -> int:
@@ -51,7 +51,9 @@ def register(subparsers) -> None:
     )
     p.add_argument("--course", help=f"course name or file (default {default_of(make_demo, 'course')})")
     p.add_argument("--start", type=int, help=f"start pose index (default {default_of(make_demo, 'start')})")
-    p.add_argument("--workers", type=int, help=f"processes (default {default_of(make_demo, 'workers')})")
+    p.add_argument(
+        "--workers", type=process_count, help=f"processes (default {default_of(make_demo, 'workers')})"
+    )
     p.add_argument("--no-video", action="store_true", help="skip the video")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print JSON")

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 import shlex
 import sys
 from pathlib import Path
@@ -17,8 +16,10 @@ from krl.cli.common import (
     given,
     interrupted_status,
     parse_ints,
+    process_count,
 )
 from krl.eval.courses import SHIPPED_COURSES
+from krl.util.parallel import usable_cores
 
 
 def _magnitudes(text: str) -> tuple[float, ...]:
@@ -163,7 +164,10 @@ def _add_output_arguments(parser: argparse.ArgumentParser) -> None:
         "the group holds)",
     )
     parser.add_argument(
-        "--workers", type=int, default=os.cpu_count() or 1, help="processes (default: all cores)"
+        "--workers",
+        type=process_count,
+        default=usable_cores(),
+        help="processes (default: one per usable core)",
     )
     parser.add_argument("--out", default="runs/eval", help="results directory (resumable)")
     parser.add_argument(

@@ -13,6 +13,7 @@ from krl.cli.common import (
     expert_params_from_args,
     given,
     print_json_summary,
+    process_count,
     run_controller,
 )
 
@@ -58,7 +59,7 @@ def add_plot_arguments(parser: argparse.ArgumentParser) -> None:
         f"{QUICK_DURATION:g} with --quick)",
     )
     parser.add_argument(
-        "--workers", type=int, help="worker processes (default: number of CPUs; 1 = in-process)"
+        "--workers", type=process_count, help="worker processes (default: number of CPUs; 1 = in-process)"
     )
     parser.add_argument("--quick", action="store_true", help="tiny runs (tests): 1 short waypoint, 3 s holds")
     parser.add_argument("--json", action="store_true", help="print a JSON summary instead of text")

@@ -19,6 +19,7 @@ from krl.cli.common import (
     given,
     parse_ints,
     print_json_summary,
+    process_count,
     run_controller,
 )
 from krl.cli.common import (
@@ -374,7 +375,7 @@ def add_figures_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--expert-json", help="the expert's velocity.json (default docs/figures/expert/...)")
     parser.add_argument("--seed", type=int, help=f"seed of the waypoints and the simulator {default('seed')}")
     parser.add_argument(
-        "--workers", type=int, help="processes for the velocity sweep (default: number of CPUs)"
+        "--workers", type=process_count, help="processes for the velocity sweep (default: number of CPUs)"
     )
     parser.add_argument("--quick", action="store_true", help="tiny runs (tests)")
     parser.add_argument("--json", action="store_true", help="print a JSON summary instead of text")

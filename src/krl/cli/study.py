@@ -9,7 +9,7 @@ import sqlite3
 import sys
 from pathlib import Path
 
-from krl.cli.common import CliError, emit, labelled_policies, parse_ints
+from krl.cli.common import CliError, emit, labelled_policies, parse_ints, process_count
 from krl.util.optuna_storage import HEARTBEAT, masked
 
 
@@ -89,8 +89,6 @@ def _check_run_options(args: argparse.Namespace) -> None:
     """One-line errors for a study's run options that every trial would fail on, before any is created."""
     if not (math.isfinite(args.heartbeat) and args.heartbeat > 0):
         raise CliError(f"--heartbeat must be a positive number of seconds, got {args.heartbeat}")
-    if args.jobs is not None and args.jobs < 1:
-        raise CliError(f"--jobs must be at least 1, got {args.jobs}")
 
 
 def _snapshot(design, out: Path, url: str, args: argparse.Namespace) -> int:
@@ -173,8 +171,8 @@ def register(group) -> None:
         "--pruner", choices=("median", "halving", "none"), help="a search's pruner (default median)"
     )
     p.add_argument("--config", help="JSON settings every trial shares (e.g. num_envs), under the trial's own")
-    p.add_argument("--jobs", type=int, help="trainings at once (default: usable cores / --workers)")
-    p.add_argument("--workers", type=int, help="environment processes per training (default 2)")
+    p.add_argument("--jobs", type=process_count, help="trainings at once (default: usable cores / --workers)")
+    p.add_argument("--workers", type=process_count, help="environment processes per training (default 2)")
     p.add_argument("--num-envs", type=int, help="environments per worker (default: the config's)")
     p.add_argument(
         "--heartbeat",

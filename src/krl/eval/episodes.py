@@ -18,7 +18,7 @@ import numpy as np
 from krl.control.commands import CommandParams
 from krl.control.mpc import MPCError
 from krl.eval.summaries import PUSH_DIRECTIONS, QUARTER
-from krl.sim.pushes import OnePush
+from krl.sim.pushes import OnePush, check_push_magnitude
 from krl.sim.robot import SimulationUnstableError
 from krl.sim.terrains import MAX_GROUND_FRICTION
 from krl.task.episode import EpisodeStep, ending
@@ -223,8 +223,10 @@ class PushSweep:
     elevation and point are the uniform draw's."""
 
     def __post_init__(self) -> None:
-        if not self.magnitudes or any(not (math.isfinite(m) and m >= 0) for m in self.magnitudes):
-            raise ValueError(f"push magnitudes must be finite numbers >= 0 N, got {self.magnitudes}")
+        if not self.magnitudes:
+            raise ValueError("a push sweep needs at least one push magnitude")
+        for magnitude in self.magnitudes:
+            check_push_magnitude(magnitude)
         if len(set(self.magnitudes)) != len(self.magnitudes):
             raise ValueError(f"push magnitudes must be distinct, got {self.magnitudes}")
         if self.attempts < 1:

@@ -26,6 +26,18 @@ PUSH_MODES: tuple[str, ...] = ("control_step", "continuous")
 FULL_TURN: tuple[float, float] = (-np.pi, np.pi)
 """The azimuth range [rad] of a push's direction unless told otherwise: every horizontal direction."""
 
+MAX_PUSH_FORCE: float = 5000.0
+"""The largest push magnitude a push sweep or probe applies [N]: over five times the thesis's largest
+(900 N, Table 5.5); far larger ones only blow the simulation up, under a flood of MuJoCo's warnings."""
+
+
+def check_push_magnitude(magnitude: float) -> None:
+    """ValueError (one line) unless ``magnitude`` [N] is finite and from 0 to :data:`MAX_PUSH_FORCE`."""
+    if not (np.isfinite(magnitude) and 0 <= magnitude <= MAX_PUSH_FORCE):
+        raise ValueError(
+            f"push magnitude must be a finite number from 0 to {MAX_PUSH_FORCE:g} N, got {magnitude}"
+        )
+
 
 @dataclass(frozen=True)
 class Push:
@@ -279,8 +291,7 @@ def scripted_push(
 
     Used by the robustness sweep (thesis Section 5.3).
     """
-    if magnitude < 0 or not np.isfinite(magnitude):
-        raise ValueError(f"push magnitude must be a finite number >= 0 N, got {magnitude}")
+    check_push_magnitude(magnitude)
     distribution = distribution or PushDistribution()
     start = float(rng.uniform(*window))
     return distribution.sample(rng, start_time=start, magnitude=magnitude, azimuth_range=azimuth_range)

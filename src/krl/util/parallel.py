@@ -41,6 +41,8 @@ __all__ = [
     "raise_if_interrupted",
     "run_jobs",
     "signals_raise",
+    "usable_cores",
+    "worker_processes",
 ]
 
 J = TypeVar("J")
@@ -75,6 +77,20 @@ def usable_cores() -> int:
     if hasattr(os, "sched_getaffinity"):
         return len(os.sched_getaffinity(0))
     return os.cpu_count() or 1
+
+
+def worker_processes(asked: int, note: Callable[[str], None]) -> int:
+    """How many worker processes to start when ``asked`` for: ``asked``, at most :func:`usable_cores` (each
+    process holds ~75 MB, and one past the cores only waits for one), with ``note`` told so in one line
+    where it caps. ValueError (one line) for fewer than one. The rule of every ``--workers`` and ``--jobs``
+    option of ``krl`` (:func:`krl.cli.common.process_count`)."""
+    if asked < 1:
+        raise ValueError(f"a number of processes must be at least 1, got {asked}")
+    cores = usable_cores()
+    if asked > cores:
+        note(f"{asked} processes asked for: capped at the {cores} usable cores")
+        return cores
+    return asked
 
 
 def run_jobs(

@@ -35,7 +35,6 @@ def one_line(err: str) -> str:
 @pytest.mark.parametrize(
     ("options", "message"),
     [
-        (["--workers", "0"], "--workers and --num-envs must be at least 1, got 0 and None"),
         (["--num-envs", "0"], "--workers and --num-envs must be at least 1, got 2 and 0"),
         (["--trials", "0"], "--trials must be at least 1, got 0"),
         (["--trials", "-2"], "--trials must be at least 1, got -2"),
@@ -43,7 +42,6 @@ def one_line(err: str) -> str:
         (["--heartbeat", "nan"], "--heartbeat must be a positive number of seconds, got nan"),
         (["--heartbeat", "inf"], "--heartbeat must be a positive number of seconds, got inf"),
         (["--heartbeat", "-1"], "--heartbeat must be a positive number of seconds, got -1.0"),
-        (["--jobs", "0"], "--jobs must be at least 1, got 0"),
     ],
 )
 def test_run_options_every_trial_would_fail_on_are_refused_before_any_trial(

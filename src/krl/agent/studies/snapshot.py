@@ -6,7 +6,7 @@
   study's jobs write (a PostgreSQL storage stays in its server: ``pg_dump`` is its tool);
 * each trial's run folder ``trials/<stage>/<entry>/`` without TensorBoard's event files, which repeat the
   training log: its config, run record, training logs (``progress*.csv``), policy and checkpoints (a run
-  keeps only its latest).
+  keeps its last two).
 
 Every file is written through a temporary name and renamed, so a snapshot stopped halfway leaves each file
 whole, old or new; files of the snapshot's run folders that the study no longer has (an older checkpoint)
