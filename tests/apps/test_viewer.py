@@ -48,3 +48,33 @@ def test_view_without_a_display_is_one_line(monkeypatch, capsys):
     assert main(["view", "--controller", "kernel", "--course", "stairs"]) == 2
     error = capsys.readouterr().err
     assert error.startswith("krl: error: `krl view` needs a display") and error.count("\n") == 1
+
+
+def test_the_scan_of_an_agent_that_observes_it_is_marked_on_the_terrain():
+    from dataclasses import replace
+
+    import mujoco
+    from agent_fakes import make_policy
+
+    from krl.agent.config import AgentConfig
+    from krl.agent.controller import AgentController
+    from krl.apps.viewer import KEY_H, _mark_points
+
+    config = AgentConfig()
+    observation = replace(config.observation, features=(*config.observation.features, "height_scan"))
+    policy = make_policy(replace(config, observation=observation))
+    course = load_course("stairs")
+    session = LiveSession(A1Sim(course.build()), AgentController(policy), course.waypoints, course.starts[0])
+    session.step()
+    points = session.scan_points()
+    assert points.shape == (187, 3)
+    terrain = session.sim.terrain
+    np.testing.assert_allclose(points[:, 2], terrain.height(points[:, 0], points[:, 1]), atol=1e-9)
+    scene = mujoco.MjvScene(session.sim.model, maxgeom=1000)
+    _mark_points(scene, points)
+    assert scene.ngeom == 187
+    np.testing.assert_allclose(scene.geoms[5].pos, points[5], atol=1e-6)
+    session.key(KEY_H)
+    assert session.scan_points().shape == (0, 3)
+    blind = LiveSession(A1Sim(course.build()), KernelController(load_model("base")))
+    assert blind.scan_points().shape == (0, 3)

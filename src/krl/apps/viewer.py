@@ -12,6 +12,7 @@ step of the controller, driven by the course's waypoint task or by a command the
 | up / down | manual command: forward velocity ± 0.1 m/s |
 | left / right | manual command: yaw rate ± 0.1 rad/s |
 | C | back to the course's waypoints (leave the manual command) |
+| H | show / hide the height scan's points (an agent that observes the terrain) |
 
 The camera follows the trunk (MuJoCo's mouse controls still turn and zoom it; Escape frees it); the viewer's
 own panels start hidden (Tab and Shift+Tab show them). What happens (falls, pushes, resets) is printed.
@@ -31,7 +32,10 @@ from krl.util.timing import CONTROL_DT
 
 KEY_SPACE, KEY_BACKSPACE = 32, 259
 KEY_RIGHT, KEY_LEFT, KEY_DOWN, KEY_UP = 262, 263, 264, 265
-KEY_C, KEY_P, KEY_R = 67, 80, 82
+KEY_C, KEY_H, KEY_P, KEY_R = 67, 72, 80, 82
+SCAN_POINT_RADIUS: float = 0.012
+"""Radius of the spheres that mark the height scan's points [m]."""
+SCAN_POINT_RGBA: tuple[float, float, float, float] = (1.0, 0.55, 0.1, 0.9)
 
 PUSH_FORCE: float = 250.0
 """Force of a push from the keyboard [N]."""
@@ -78,7 +82,23 @@ class LiveSession:
         """The keyboard's command (v_x, v_y, ω_z), or None while the waypoints steer."""
         self.messages: list[str] = []
         """What happened, newest last (falls, reaching the last waypoint, pushes, resets)."""
+        self.show_scan = True
+        """Whether the viewer marks the height scan's points (key H)."""
         self.reset()
+
+    def scan_points(self) -> np.ndarray:
+        """World positions [m] of the points the controller's height scan reads, on the terrain's surface
+        as it stands now; none for a controller without one (or hidden). Shape: (P, 3)."""
+        from krl.sim.scan import heading_points_to_world
+
+        senses = getattr(self.controller, "senses", None)
+        if not self.show_scan or senses is None or not senses.sensing.needed:
+            return np.zeros((0, 3))
+        points = senses.sensing.points
+        heights = self.sim.batch.terrain_heights(points)[0]
+        state = self.sim.state
+        xy = heading_points_to_world(points, state.base_pos, float(state.rpy[2]))
+        return np.column_stack([xy, heights])
 
     def reset(self) -> None:
         if self.start is None:
@@ -116,6 +136,8 @@ class LiveSession:
             self.manual = np.clip(self.manual, self.params.low, self.params.high)
         elif code == KEY_C and len(self.waypoints):
             self.manual = None
+        elif code == KEY_H:
+            self.show_scan = not self.show_scan
 
     def command(self) -> np.ndarray:
         """The velocity command of the next step (the keyboard's, or the waypoint task's; zero when done)."""
@@ -134,6 +156,24 @@ class LiveSession:
             self.task.after_step(state.base_pos[:2])
         if state.fallen:
             self.messages.append(f"fell at t = {state.time:.1f} s (backspace resets)")
+
+
+def _mark_points(scene, points: np.ndarray) -> None:
+    """Draw ``points`` (shape (P, 3), world [m]) as small spheres in the viewer's user scene (replacing what
+    it drew before), as many as the scene holds."""
+    import mujoco
+
+    count = min(len(points), scene.maxgeom)
+    for index in range(count):
+        mujoco.mjv_initGeom(
+            scene.geoms[index],
+            mujoco.mjtGeom.mjGEOM_SPHERE,
+            np.array([SCAN_POINT_RADIUS, 0.0, 0.0]),
+            points[index],
+            np.eye(3).ravel(),
+            np.array(SCAN_POINT_RGBA, dtype=np.float32),
+        )
+    scene.ngeom = count
 
 
 HEADLESS_HINT = (
@@ -198,6 +238,8 @@ def run_viewer(session: LiveSession, duration: float | None = None) -> None:
                     break
                 started = time.perf_counter()
                 session.step()
+                with viewer.lock():
+                    _mark_points(viewer.user_scn, session.scan_points())
                 viewer.sync()
                 for message in session.messages[shown:]:
                     print(f"krl view: {message}", flush=True)
