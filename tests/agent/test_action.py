@@ -17,7 +17,7 @@ from krl.agent.residual import ResidualController
 from krl.cli import main
 from krl.control.expert import RIDE_HEIGHT_RANGE, STEP_HEIGHT_RANGE
 from krl.kernel.registry import load_model
-from krl.sim.batch import SimBatch
+from krl.sim.backend import make_backend
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim
 
@@ -28,7 +28,7 @@ def _rollout(config: ResidualConfig, actions: np.ndarray, kernel: str = "ext") -
     """Joint targets of two robots on a height field, driven by ``actions`` (steps, 2, D) and a fixed
     task command. Shape: (steps, 2, 12)."""
     controller = ResidualController(load_model(kernel), config, 2)
-    sims = SimBatch([build_model("heightfield", seed=3)] * 2)
+    sims = make_backend([build_model("heightfield", seed=3)] * 2)
     states = sims.states
     command = np.array([[0.3, 0.0, 0.1], [0.2, -0.1, 0.0]])
     out = []
@@ -71,7 +71,7 @@ def test_zero_drives_reproduce_the_residual_agent_bit_for_bit():
 def test_steering_offsets_the_tasks_command_within_the_kernels_ranges():
     config = ResidualConfig(residuals=False, drive_steer=True, gait_alpha=1.0)
     controller = ResidualController(load_model("base"), config, 1)
-    sims = SimBatch([build_model("flat")])
+    sims = make_backend([build_model("flat")])
     command = np.array([[0.3, 0.1, 0.4]])
     controller.prepare(sims.states, command)
     np.testing.assert_array_equal(controller.kernel_command, command)
@@ -84,7 +84,7 @@ def test_steering_offsets_the_tasks_command_within_the_kernels_ranges():
 def test_driven_inputs_are_bounded_and_low_pass_filtered():
     config = ResidualConfig(kernel="ext", residuals=False, **ALL_DRIVES, gait_alpha=0.2)
     controller = ResidualController(load_model("ext"), config, 1)
-    sims = SimBatch([build_model("flat")])
+    sims = make_backend([build_model("flat")])
     action = np.array([[7.0, -7.0, 7.0, 7.0, -7.0, 7.0]])  # clipped to ±1
     high = np.array([0.5, -0.3, 0.5, STEP_HEIGHT_RANGE[1], RIDE_HEIGHT_RANGE[0], config.rhythm_range[1]])
     nominal = controller.gait_inputs[0].copy()
@@ -103,7 +103,7 @@ def test_driven_inputs_are_bounded_and_low_pass_filtered():
 def test_a_driven_clock_advances_at_its_rate():
     config = ResidualConfig(residuals=False, drive_rhythm=True, gait_alpha=1.0, rhythm_range=(0.5, 2.0))
     controller = ResidualController(load_model("base"), config, 2)
-    sims = SimBatch([build_model("flat")] * 2)
+    sims = make_backend([build_model("flat")] * 2)
     for _ in range(4):
         controller.prepare(sims.states, np.zeros((2, 3)))
         controller.joint_targets(np.array([[1.0], [-1.0]]))
@@ -113,7 +113,7 @@ def test_a_driven_clock_advances_at_its_rate():
 def test_the_drive_features_observe_what_the_kernel_receives():
     config = ResidualConfig(kernel="ext", residuals=False, **ALL_DRIVES, gait_alpha=1.0)
     controller = ResidualController(load_model("ext"), config, 1)
-    sims = SimBatch([build_model("flat")])
+    sims = make_backend([build_model("flat")])
     controller.prepare(sims.states, np.zeros((1, 3)))
     controller.joint_targets(np.full((1, 6), 0.5))
     controller.prepare(sims.states, np.zeros((1, 3)))
@@ -141,7 +141,7 @@ def test_bad_drive_settings_are_refused(kwargs, kernel, message):
 
 def test_actions_of_the_wrong_size_are_refused():
     controller = ResidualController(load_model("base"), ResidualConfig(drive_command=True), 1)
-    sims = SimBatch([build_model("flat")])
+    sims = make_backend([build_model("flat")])
     controller.prepare(sims.states, np.zeros((1, 3)))
     with pytest.raises(ValueError, match=r"shape \(1, 15\)"):
         controller.joint_targets(np.zeros((1, 12)))

@@ -1,5 +1,5 @@
-"""SimBatch: its batched step and readout are N single robots' steps and one-robot readouts, bit for bit;
-A1Sim is the batch of one."""
+"""SimBatch, the MuJoCo CPU backend (built by make_backend): its batched step and readout are N single
+robots' steps and one-robot readouts, bit for bit; A1Sim is the batch of one."""
 
 import dataclasses
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from krl.robots.a1.constants import STANDING_JOINT_ANGLES
-from krl.sim.batch import SimBatch
+from krl.sim.backend import make_backend
 from krl.sim.model import build_model
 from krl.sim.pushes import Push
 from krl.sim.robot import A1Sim, SimulationUnstableError
@@ -30,7 +30,7 @@ def test_batched_steps_and_readout_are_single_simulators_bit_for_bit():
         build_model("perlin", None, 4),
         build_model("flat"),
     ]
-    batch = SimBatch(models)
+    batch = make_backend(models)
     singles = [A1Sim(built) for built in models]
     assert_same_states(batch.states, [sim.state for sim in singles])
     rng = np.random.default_rng(0)
@@ -63,7 +63,7 @@ def test_batched_steps_and_readout_are_single_simulators_bit_for_bit():
 
 
 def test_an_earlier_batch_is_a_snapshot():
-    batch = SimBatch([build_model("flat")] * 2)
+    batch = make_backend([build_model("flat")] * 2)
     first = batch.step(np.tile(STANDING_JOINT_ANGLES, (2, 1)))
     saved = first.joint_pos.copy(), first.base_pos.copy(), first.time.copy()
     batch.step(np.tile(STANDING_JOINT_ANGLES, (2, 1)))
@@ -74,7 +74,7 @@ def test_an_earlier_batch_is_a_snapshot():
 
 
 def test_a_diverged_robot_keeps_its_last_state_marked_fallen():
-    batch = SimBatch([build_model("flat")] * 3)
+    batch = make_backend([build_model("flat")] * 3)
     q = np.tile(STANDING_JOINT_ANGLES, (3, 1))
     before = batch.step(q)
     batch.data(1).qvel[0] = np.nan
@@ -93,7 +93,7 @@ def test_a_diverged_robot_keeps_its_last_state_marked_fallen():
 
 
 def test_bad_targets_are_refused():
-    batch = SimBatch([build_model("flat")] * 2)
+    batch = make_backend([build_model("flat")] * 2)
     with pytest.raises(ValueError, match=r"shape \(2, 12\)"):
         batch.step(np.zeros((3, 12)))
     with pytest.raises(ValueError, match="non-finite"):
@@ -102,7 +102,7 @@ def test_bad_targets_are_refused():
 
 def test_models_with_markers_before_the_robots_sites_are_read_out_alike():
     models = [build_model("flat"), build_model("flat", markers=[(1.0, 0.0), (2.0, 1.0)])]
-    batch, singles = SimBatch(models), [A1Sim(built) for built in models]
+    batch, singles = make_backend(models), [A1Sim(built) for built in models]
     assert models[0].model.site("FR_foot").id != models[1].model.site("FR_foot").id
     for _ in range(20):
         states = batch.step(np.tile(STANDING_JOINT_ANGLES, (2, 1)))

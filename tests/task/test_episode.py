@@ -11,6 +11,7 @@ from krl.agent.controller import AgentController
 from krl.agent.env import A1ResidualEnv
 from krl.control.commands import CommandParams
 from krl.robots.a1.constants import STANDING_JOINT_ANGLES
+from krl.sim.backend import make_backend
 from krl.sim.batch import SimBatch
 from krl.sim.model import build_model
 from krl.sim.pushes import OnePush, Push
@@ -59,7 +60,7 @@ def test_an_agent_makes_the_same_steps_in_the_training_environment_and_in_an_eva
 
 
 def test_each_robot_of_a_batch_ends_its_own_episode():
-    sims = SimBatch([build_model("flat")] * 2)
+    sims = make_backend([build_model("flat")] * 2)
     episodes = EpisodeBatch(sims, EVALUATION_REWARD)
     topple = Push(0.02, np.array([0.0, 900.0, 100.0]), np.zeros(3), duration=0.2, mode="continuous")
     episodes.start(

@@ -38,7 +38,7 @@ from krl.agent.vec_env import BatchVecEnv
 from krl.control.commands import CommandParams
 from krl.kernel.model import load_kernel
 from krl.kernel.registry import resolve_model
-from krl.sim.batch import SimBatch
+from krl.sim.backend import SimBackend, make_backend
 from krl.sim.model import build_model
 from krl.sim.pushes import PushDistribution, PushSchedule
 from krl.sim.state import StateBatch
@@ -102,7 +102,7 @@ class ResidualEnvBatch:
             interval=env.push_interval, magnitude=env.push_magnitude, top_share=env.push_top_share
         )
         self.rngs: list[np.random.Generator] = [np.random.default_rng(index) for index in range(num_envs)]
-        self.sims: SimBatch | None = None
+        self.sims: SimBackend | None = None
         self.episodes: EpisodeBatch | None = None
         """The episode loop over :attr:`sims` (made with the first terrain)."""
         self.push_schedules: list[PushSchedule | None] = [None] * num_envs
@@ -171,7 +171,7 @@ class ResidualEnvBatch:
             if new_terrain:
                 built = self._terrain(index)
                 if self.sims is None:
-                    self.sims = SimBatch([built] * self.num_envs)
+                    self.sims = make_backend([built] * self.num_envs)
                     self.episodes = EpisodeBatch(self.sims, self.reward)
                 self.sims.replace(index, built)
                 self.needs_terrain[index] = False

@@ -14,10 +14,10 @@ import time
 
 import mujoco
 
-from krl.robots.a1.constants import KP, STANDING_JOINT_ANGLES
+from krl.robots.a1.constants import STANDING_JOINT_ANGLES
+from krl.sim.batch import BarePhysics
 from krl.sim.model import BuiltModel, build_model
 from krl.sim.robot import A1Sim
-from krl.util.timing import SUBSTEPS
 
 TARGET_RATIO = 0.6
 """Required env/raw throughput ratio (issue #2)."""
@@ -33,29 +33,20 @@ def _rate(step, steps: int) -> float:
 def bare_seconds(built: BuiltModel, steps: int) -> float:
     """Seconds ``steps`` bare control steps (``mj_step(nstep=5)``, constant controls holding the standing
     pose) of the robot on ``built`` take, from its standing reset state: the floor a benchmark's rate is
-    set against."""
-    sim = A1Sim(built)
-    data = mujoco.MjData(sim.model)
-    mujoco.mj_copyData(data, sim.model, sim.data)
-    data.ctrl[:12] = KP * STANDING_JOINT_ANGLES
-    start = time.perf_counter()
-    for _ in range(steps):
-        mujoco.mj_step(sim.model, data, nstep=SUBSTEPS)
-    return time.perf_counter() - start
+    set against (:class:`krl.sim.batch.BarePhysics`)."""
+    return BarePhysics(built).seconds(steps)
 
 
 def bench_terrain(terrain: str, steps: int, repeats: int, seed: int = 0) -> dict[str, float]:
     """Median control steps per second, raw and env, on one terrain."""
-    sim = A1Sim(build_model(terrain, seed=seed))
-    model = sim.model
-    raw_data = mujoco.MjData(model)
+    built = build_model(terrain, seed=seed)
+    sim, bare = A1Sim(built), BarePhysics(built)
     targets = STANDING_JOINT_ANGLES.copy()
     raw_rates, env_rates = [], []
     for _ in range(repeats):
         sim.reset()
-        mujoco.mj_copyData(raw_data, model, sim.data)
-        raw_data.ctrl[:12] = KP * targets
-        raw_rates.append(_rate(lambda: mujoco.mj_step(model, raw_data, nstep=SUBSTEPS), steps))
+        bare.reset()
+        raw_rates.append(steps / bare.seconds(steps))
         env_rates.append(_rate(lambda: sim.step(targets), steps))
     raw = statistics.median(raw_rates)
     env = statistics.median(env_rates)

@@ -21,9 +21,8 @@ import mujoco
 import numpy as np
 
 from krl.robots.a1 import MJCF_PATH
-from krl.robots.a1.constants import KP, STANDING_JOINT_ANGLES
+from krl.sim.batch import BarePhysics
 from krl.sim.model import BuiltModel
-from krl.sim.robot import A1Sim
 from krl.sim.terrains import TERRAIN_NAMES, add_terrain
 
 BASELINE = "flat"
@@ -48,21 +47,13 @@ def bench_one_terrain(terrain: str, steps: int, repeats: int) -> dict[str, float
         _, add_s, compile_s = _built(terrain)
         add_times.append(add_s)
         compile_times.append(compile_s)
-    sim = A1Sim(built)
-    sim.reset()
-    data = sim.data
-    data.ctrl[:12] = KP * STANDING_JOINT_ANGLES
-    loops = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        for _ in range(steps):
-            mujoco.mj_step(sim.model, data)
-        loops.append((time.perf_counter() - start) / steps)
+    bare = BarePhysics(built)
+    loops = [bare.seconds(steps, nstep=1) / steps for _ in range(repeats)]
     return {
         "add_terrain_ms": 1e3 * min(add_times),
         "compile_ms": 1e3 * min(compile_times),
         "step_us": 1e6 * min(loops),
-        "contacts": int(data.ncon),
+        "contacts": bare.contacts,
     }
 
 

@@ -34,8 +34,8 @@ class Controller(Protocol):
 
 def attach_scene(controller, sims) -> None:
     """Give a controller that reads the scene (a perceptive agent's height scan) the simulators it acts in
-    (a :class:`krl.sim.batch.SimBatch`), through its ``attach(sims)``; other controllers need nothing. Every
-    loop that steps a controller calls it once, before the first step."""
+    (a :class:`krl.sim.backend.SimBackend`), through its ``attach(sims)``; other controllers need nothing.
+    Every loop that steps a controller calls it once, before the first step."""
     attach = getattr(controller, "attach", None)
     if attach is not None:
         attach(sims)

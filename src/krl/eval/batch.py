@@ -23,7 +23,7 @@ import numpy as np
 from krl.control.commands import CommandParams
 from krl.control.types import attach_scene
 from krl.eval.episodes import EpisodeScorer, push_attempt_metrics
-from krl.sim.batch import SimBatch
+from krl.sim.backend import SimBackend, make_backend
 from krl.sim.model import BuiltModel, build_model
 from krl.sim.pushes import OnePush, Push
 from krl.task.episode import EpisodeBatch, EpisodeStep
@@ -95,7 +95,7 @@ def run_batch(tasks: Sequence) -> list[dict[str, Any]]:
     models: dict[str, BuiltModel] = {}
     walks = [_walk(task, flat, models) for task in tasks]
     slots = min(BATCH_SLOTS, len(tasks))
-    sims = SimBatch([walks[0].built] * slots)
+    sims = make_backend([walks[0].built] * slots)
     episodes = EpisodeBatch(sims, EVALUATION_REWARD)
     controller = spec.build_batch(seed, slots)
     attach_scene(controller, sims)
@@ -147,7 +147,7 @@ def run_batch(tasks: Sequence) -> list[dict[str, Any]]:
     return [_record(*run) for run in zip(tasks, walks, metrics, strict=True)]
 
 
-def _count(step: EpisodeStep, slot: int, run: _Run, sims: SimBatch, end) -> None:
+def _count(step: EpisodeStep, slot: int, run: _Run, sims: SimBackend, end) -> None:
     """Score robot ``slot``'s part of ``step`` into its run, and end the run where the step ended it."""
     if step.unstable[slot]:
         end(slot, error=f"SimulationUnstableError: {sims.divergence(slot)}")

@@ -12,16 +12,18 @@ steps in one ``mj_step`` call (a pending push acts on the trunk), refreshes posi
 robot after the other in this process; the motor envelope and the readout are computed for all N together.
 A single robot is the batch of one (:class:`krl.sim.robot.A1Sim`).
 
-The public interface (``reset``/``set_state``/``push``/``replace`` of one robot, ``step`` of ``(N, 12)``
-commands returning a ``StateBatch``, ``states``, ``unstable``, ``step_counts``) is the seam where a GPU
-backend (MuJoCo Warp: all N robots in one kernel launch) would go: nothing outside this module sees how the
-physics is stepped. ``benchmarks/README.md`` records why the CPU batch keeps one ``MjData`` per robot rather
-than ``mujoco.batch.Batch``.
+:class:`SimBatch` is the MuJoCo CPU implementation of the simulator seam,
+:class:`krl.sim.backend.SimBackend`, and is built through :func:`krl.sim.backend.make_backend`: nothing
+outside this module sees how the physics is stepped. ``benchmarks/README.md`` records why the CPU batch
+keeps one ``MjData`` per robot rather than ``mujoco.batch.Batch``. Plain MuJoCo without krl around it (the
+benchmarks' floor, :class:`BarePhysics`; a logged frame posed for drawing, :func:`pose_for_drawing`) is
+written here too, so that this module stays the only one that writes ``MjData``.
 """
 
 from __future__ import annotations
 
 import copy
+import time
 from collections.abc import Sequence
 
 import mujoco
@@ -495,6 +497,41 @@ class SimBatch:
                 getattr(states, name)[index] = getattr(previous, name)[index]
         states.fallen[diverged] = True
         return states
+
+
+class BarePhysics:
+    """Plain MuJoCo on a private copy of one robot's scene, with nothing of krl around it: the floor the
+    benchmarks set the simulator's cost against. It starts, and :meth:`reset` puts it back, in the state
+    :meth:`SimBatch.reset` gives (standing at the spawn point) with constant controls that hold the
+    standing pose at Table 4.2's gains; no motor envelope, no readout."""
+
+    def __init__(self, built: BuiltModel) -> None:
+        self._robot = _Robot(built)
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the standing reset state."""
+        self._robot.reset(None, 0.0, None)
+
+    def seconds(self, steps: int, nstep: int = SUBSTEPS) -> float:
+        """Wall seconds of ``steps`` calls of ``mj_step(nstep=nstep)`` (default: one control step each)."""
+        robot = self._robot
+        start = time.perf_counter()
+        for _ in range(steps):
+            mujoco.mj_step(robot.model, robot.data, nstep=nstep)
+        return time.perf_counter() - start
+
+    @property
+    def contacts(self) -> int:
+        """The contacts of the last physics step."""
+        return int(self._robot.data.ncon)
+
+
+def pose_for_drawing(model: mujoco.MjModel, data: mujoco.MjData, qpos: np.ndarray) -> None:
+    """Put ``data`` (a renderer's own ``MjData`` of ``model``, never a simulator's) in the pose ``qpos``
+    (shape (model.nq,)) with its positions computed (``mj_forward``), to draw a logged frame."""
+    data.qpos[:] = qpos
+    mujoco.mj_forward(model, data)
 
 
 def joint_vector(value: np.ndarray, name: str) -> np.ndarray:

@@ -1,9 +1,10 @@
 """The simulated A1 one robot at a time: hybrid PD control at 1 kHz inside MuJoCo, state readout, pushes,
 fall detection.
 
-:class:`A1Sim` is :class:`krl.sim.batch.SimBatch` with one robot, for code that drives a single robot
-(the MPC expert, the kernel, the evaluation, the viewer): one call of :meth:`A1Sim.step` is one 200 Hz
-control step of the batch, and a single robot and a batch of N step and read out alike, bit for bit.
+:class:`A1Sim` is a simulator backend (:class:`krl.sim.backend.SimBackend`) with one robot, for code that
+drives a single robot (the MPC expert, the kernel, the evaluation, the viewer): one call of
+:meth:`A1Sim.step` is one 200 Hz control step of the batch, and a single robot and a batch of N step and
+read out alike, bit for bit.
 This module also names what a user of one robot needs: :class:`krl.sim.state.RobotState`, the fall rule
 (:data:`krl.sim.state.FALL_TILT`), the motor envelope and :class:`SimulationUnstableError`.
 """
@@ -13,9 +14,9 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from krl.sim.backend import SimBackend, make_backend
 from krl.sim.batch import (
     SPAWN_CLEARANCE,
-    SimBatch,
     SimulationUnstableError,
     joint_vector,
     motor_torque_bounds,
@@ -37,7 +38,8 @@ __all__ = [
 
 
 class A1Sim:
-    """One simulated A1 on one terrain: a :class:`krl.sim.batch.SimBatch` of one robot.
+    """One simulated A1 on one terrain: a simulator backend (:class:`krl.sim.backend.SimBackend`) of one
+    robot.
 
     Args:
         built: the compiled model (:func:`krl.sim.model.build_model`); the simulator works on a private
@@ -47,7 +49,7 @@ class A1Sim:
     """
 
     def __init__(self, built: BuiltModel, motor_envelope: bool = True) -> None:
-        self.batch = SimBatch([built], motor_envelope=motor_envelope)
+        self.batch: SimBackend = make_backend([built], motor_envelope=motor_envelope)
         """The batch of one this simulator is (what :class:`krl.task.episode.EpisodeBatch` steps)."""
         self._read: tuple[StateBatch, RobotState] | None = None
 
@@ -92,13 +94,14 @@ class A1Sim:
         joint_angles: np.ndarray | None = None,
     ) -> RobotState:
         """Put the robot at rest at ``xy`` (default: the terrain's spawn point) facing ``yaw`` [rad]
-        (:meth:`krl.sim.batch.SimBatch.reset`: ``joint_angles`` default to the standing pose, shape (12,))."""
+        (:meth:`krl.sim.backend.SimBackend.reset`: ``joint_angles`` default to the standing pose, shape
+        (12,))."""
         self.batch.reset(0, xy=xy, yaw=yaw, joint_angles=joint_angles)
         return self.state
 
     def set_state(self, qpos: np.ndarray, qvel: np.ndarray) -> RobotState:
         """Put the robot in the state ``qpos`` (shape (19,)) and ``qvel`` (shape (18,)), keeping the time,
-        gains and pending push (:meth:`krl.sim.batch.SimBatch.set_state`)."""
+        gains and pending push (:meth:`krl.sim.backend.SimBackend.set_state`)."""
         self.batch.set_state(0, qpos, qvel)
         return self.state
 

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from krl.sim.batch import pose_for_drawing
 from krl.sim.render import CameraView, FrameRenderer
 from krl.sim.robot import A1Sim
 
@@ -71,8 +72,7 @@ def write_video(
         writer = imageio.get_writer(temporary, fps=fps, macro_block_size=1)
         try:
             for index, frame in enumerate(qpos):
-                data.qpos[:] = frame
-                mujoco.mj_forward(model, data)
+                pose_for_drawing(model, data, frame)
                 writer.append_data(renderer.render(data))
                 if on_frame is not None:
                     on_frame(index)

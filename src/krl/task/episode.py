@@ -1,4 +1,5 @@
-"""The one episode loop: N robots of a :class:`krl.sim.batch.SimBatch`, each walking its own task.
+"""The one episode loop: N robots of a simulator backend (:class:`krl.sim.backend.SimBackend`), each
+walking its own task.
 
 Training (:class:`krl.agent.env.ResidualEnvBatch`, with automatic resets), evaluation and data collection
 (:class:`krl.task.runner.Runner`, one robot, no reset) and every analysis that walks a robot run their
@@ -8,8 +9,8 @@ controller made from :attr:`EpisodeBatch.commands` and :attr:`EpisodeBatch.state
 
 1. **pushes**: each robot's push events (:class:`PushEvents`) are asked whether a push starts now, and a
    due push is scheduled on its robot;
-2. **physics**: the batch steps (:meth:`krl.sim.batch.SimBatch.step`; a diverged robot comes back fallen and
-   ``unstable``);
+2. **physics**: the batch steps (:meth:`krl.sim.backend.SimBackend.step`; a diverged robot comes back fallen
+   and ``unstable``);
 3. **task**: each task counts the step and observes the base (:meth:`krl.task.waypoints.WaypointTask.
    after_step`: distance to the waypoint, reached or not);
 4. **reward**: the named terms of :func:`krl.task.reward.reward_terms` for every robot;
@@ -28,7 +29,7 @@ from typing import Protocol
 
 import numpy as np
 
-from krl.sim.batch import SimBatch
+from krl.sim.backend import SimBackend
 from krl.sim.pushes import Push
 from krl.sim.state import StateBatch
 from krl.task.reward import RewardConfig, StanceMemory, reward_terms
@@ -111,7 +112,7 @@ class EpisodeBatch:
         reward: the reward function of every robot.
     """
 
-    def __init__(self, sims: SimBatch, reward: RewardConfig) -> None:
+    def __init__(self, sims: SimBackend, reward: RewardConfig) -> None:
         n = len(sims)
         self.sims = sims
         self.reward = reward
@@ -130,7 +131,7 @@ class EpisodeBatch:
 
     @property
     def states(self) -> StateBatch:
-        """The robots' current states (:attr:`krl.sim.batch.SimBatch.states`)."""
+        """The robots' current states (:attr:`krl.sim.backend.SimBackend.states`)."""
         return self.sims.states
 
     def start(self, rows: Sequence[int] | np.ndarray, tasks: Sequence[RobotTask], pushes) -> np.ndarray:
@@ -171,7 +172,7 @@ class EpisodeBatch:
         tau_ff: np.ndarray | None = None,
     ) -> EpisodeStep:
         """One control step of every robot whose episode is under way, with the joint command (shapes
-        (N, 12), :meth:`krl.sim.batch.SimBatch.step`; the other robots' rows are not used); returns what
+        (N, 12), :meth:`krl.sim.backend.SimBackend.step`; the other robots' rows are not used); returns what
         it did."""
         sims, before, commands = self.sims, self.states, self.commands.copy()
         pushes = self._schedule_pushes(before)

@@ -38,7 +38,7 @@ from krl.control.kinematics import inverse_kinematics
 from krl.kernel.model import Kernel
 from krl.kernel.registry import load_model
 from krl.robots.a1.constants import NUM_JOINTS, NUM_LEGS
-from krl.sim.batch import SimBatch
+from krl.sim.backend import make_backend
 from krl.sim.model import BuiltModel, build_model
 from krl.sim.robot import A1Sim
 from krl.util.timing import CONTROL_DT
@@ -200,7 +200,7 @@ def walk_pair(
             takes the kernel's asymmetry out and leaves the physics'.
     """
     controller = ResidualController(kernel, ResidualConfig(kernel=kernel.variant), num_robots=2)
-    batch = SimBatch([built, built])
+    batch = make_backend([built, built])
     for index in range(2):
         batch.reset(index, xy=(0.0, 0.0))
     controller.reset()
@@ -318,7 +318,7 @@ def kernel_mirror_error(kernel: Kernel, command: Sequence[float], points: int = 
     clocks = np.arange(points) / points * cycle_steps
     controller.clock[:] = np.concatenate([clocks, clocks + 0.5 * cycle_steps]) - 1.0  # prepare adds 1
     commands = np.repeat([np.asarray(command, dtype=float), mirror_command(command)], points, axis=0)
-    batch = SimBatch([build_model("flat")])
+    batch = make_backend([build_model("flat")])
     states = batch.states.rows(np.zeros(2 * points, dtype=int))
     controller.prepare(states, commands)
     original, mirrored = controller.kernel_targets[:points], controller.kernel_targets[points:]
