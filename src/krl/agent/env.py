@@ -3,7 +3,8 @@
 :class:`ResidualEnvBatch` is the core: N environments stepped together in one process through the one
 episode loop (:class:`krl.task.episode.EpisodeBatch`: pushes, physics, task, reward terms, termination;
 the loop evaluation walks its runs through), the physics one robot after the other
-(:class:`krl.sim.batch.SimBatch`), everything else (kernel, filter, IK, observation, reward) batched over N.
+(:class:`krl.sim.backend.SimBackend`), everything else (kernel, filter, IK, observation, reward) batched
+over N.
 Two faces use it:
 
 * :class:`A1ResidualEnv`, the Gymnasium environment ``krl/A1Residual-v0`` (one robot);

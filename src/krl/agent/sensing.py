@@ -1,9 +1,10 @@
 """The observation features measured in the scene (:data:`krl.agent.observation.SENSED`), for N robots.
 
-:class:`Sensing` reads what the state does not hold from the simulators (:class:`krl.sim.batch.SimBatch`):
-the height scan (:mod:`krl.sim.scan`, through :meth:`SimBatch.terrain_heights`), the ground's friction and
-the push acting now; and, from the training environment, each robot's terrain level. Only the features a
-configuration observes are measured, so an agent without them costs nothing more.
+:class:`Sensing` reads what the state does not hold from the simulators (a
+:class:`krl.sim.backend.SimBackend`): the height scan (:mod:`krl.sim.scan`, through its ``terrain_heights``),
+the ground's friction and the push acting now; and, from the training environment, each robot's terrain
+level. Only the features a configuration observes are measured, so an agent without them costs nothing
+more.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import numpy as np
 from krl.agent.config import ObservationConfig
 from krl.agent.observation import SENSED
 from krl.robots.a1.constants import FOOT_FRICTION
-from krl.sim.batch import SimBatch
+from krl.sim.backend import SimBackend
 from krl.sim.state import StateBatch
 
 
@@ -38,7 +39,7 @@ class Sensing:
         return bool(self.names)
 
     def measure(
-        self, sims: SimBatch, states: StateBatch, terrain_levels: np.ndarray | None = None
+        self, sims: SimBackend, states: StateBatch, terrain_levels: np.ndarray | None = None
     ) -> dict[str, np.ndarray]:
         """Every sensed feature of the observation for the N robots of ``sims`` in ``states``, by name;
         shapes (N, size). ``terrain_levels``: each robot's curriculum level as a share of the top (N,)."""
@@ -69,7 +70,7 @@ class Sensing:
         return np.clip(relative, -self.scan.clip, self.scan.clip)
 
 
-def push_forces(sims: SimBatch, states: StateBatch) -> np.ndarray:
+def push_forces(sims: SimBackend, states: StateBatch) -> np.ndarray:
     """The push acting on each robot's trunk at its current step, in its base frame [N]; 0 where none.
     Shape: (N, 3)."""
     n = len(sims)
