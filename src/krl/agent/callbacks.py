@@ -23,6 +23,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from krl.agent.checkpoint import NORMALISER_FILE, NormaliserState
 from krl.agent.config import AgentConfig
 from krl.agent.network import export_policy
+from krl.agent.sb3_adapter import step_infos, training_goal
 from krl.util.output import write_atomic
 from krl.util.parallel import raise_if_interrupted
 from krl.util.progress import progress_bar
@@ -59,7 +60,7 @@ class EpisodeLog(BaseCallback):
         self.last_steps = self.num_timesteps
 
     def _on_step(self) -> bool:
-        for info in self.locals["infos"]:
+        for info in step_infos(self):
             episode = info.get("episode")
             if episode is not None:
                 self.episodes.append(episode)
@@ -103,7 +104,7 @@ class ProgressBar(BaseCallback):
     def _on_training_start(self) -> None:
         # PPO stops at the end of the rollout that reaches the goal, so the bar counts whole rollouts
         rollout = self.model.n_steps * self.model.n_envs
-        remaining = max(0, self.locals["total_timesteps"] - self.num_timesteps)
+        remaining = max(0, training_goal(self) - self.num_timesteps)
         goal = self.num_timesteps + -(-remaining // rollout) * rollout
         self.bar.start()
         self.task = self.bar.add_task("env steps", total=goal, completed=self.num_timesteps)
