@@ -29,6 +29,7 @@ from krl.agent.checkpoint import (
 )
 from krl.agent.config import AgentConfig
 from krl.agent.network import export_policy
+from krl.agent.sb3_adapter import step_infos, training_goal
 from krl.util.output import write_atomic
 from krl.util.parallel import raise_if_interrupted
 from krl.util.progress import progress_bar
@@ -65,7 +66,7 @@ class EpisodeLog(BaseCallback):
         self.last_steps = self.num_timesteps
 
     def _on_step(self) -> bool:
-        for info in self.locals["infos"]:
+        for info in step_infos(self):
             episode = info.get("episode")
             if episode is not None:
                 self.episodes.append(episode)
@@ -107,7 +108,7 @@ class ProgressBar(BaseCallback):
         self.task = None
 
     def _on_training_start(self) -> None:
-        goal = rollout_end(self.model, self.locals["total_timesteps"])  # the bar counts whole rollouts
+        goal = rollout_end(self.model, training_goal(self))  # the bar counts whole rollouts
         self.bar.start()
         self.task = self.bar.add_task("env steps", total=goal, completed=self.num_timesteps)
 

@@ -7,7 +7,8 @@ A checkpoint ``checkpoints/<steps>/`` (written whole by
 * ``model.zip``: SB3's archive (``PPO.save``): the policy's and the optimiser's state dicts and the
   algorithm's fields (JSON, some of them cloudpickled). :func:`read_checkpoint` reads the state dicts
   with ``torch.load(weights_only=True)`` and of the fields only ``_n_updates`` (plain JSON) and
-  ``ep_info_buffer`` (the recent episodes, through :func:`restricted_loads`); no other field is read.
+  ``ep_info_buffer`` (the recent episodes, through :func:`restricted_loads`), both through
+  :mod:`krl.agent.sb3_adapter`; no other field is read.
 * ``normaliser.npz``: the observation and return normaliser (:class:`NormaliserState`), plain arrays read
   with ``np.load(allow_pickle=False)``.
 * ``state.json``: ``num_timesteps``, ``wall_seconds``, ``final``.
@@ -21,7 +22,6 @@ read the same way, so the committed runs in ``training/`` still resume and start
 
 from __future__ import annotations
 
-import base64
 import io
 import json
 import pickle
@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from stable_baselines3.common.save_util import load_from_zip_file
 
+from krl.agent.sb3_adapter import saved_episodes_pickle, saved_update_count
 from krl.util.output import npz_bytes, write_atomic
 
 
@@ -317,8 +318,8 @@ def read_checkpoint(checkpoint: Path) -> Checkpoint:
         params = {name: stored[name] for name in ("policy", "policy.optimizer")}
         with zipfile.ZipFile(model) as archive:
             data = json.loads(archive.read("data"))
-        n_updates = int(data["_n_updates"])
-        episodes = list(restricted_loads(base64.b64decode(data["ep_info_buffer"][":serialized:"])))
+        n_updates = saved_update_count(data)
+        episodes = list(restricted_loads(saved_episodes_pickle(data)))
         if not all(isinstance(episode, dict) for episode in episodes):
             raise CheckpointError(f"checkpoint {checkpoint}: model.zip's ep_info_buffer holds no episodes")
     except CheckpointError as error:

@@ -20,6 +20,7 @@ from pathlib import Path
 from stable_baselines3.common.callbacks import BaseCallback
 
 from krl.agent.config import EnvConfig
+from krl.agent.sb3_adapter import step_infos
 
 
 def next_ceiling(env: EnvConfig, ceiling: float, survival: float | None) -> float:
@@ -68,7 +69,7 @@ class PushCurriculum(BaseCallback):
         self.survived = self.judged = 0
 
     def _on_step(self) -> bool:
-        for info in self.locals["infos"]:
+        for info in step_infos(self):
             verdict = info.get("push_survived")
             if verdict is not None:
                 self.judged += 1

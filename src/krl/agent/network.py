@@ -10,12 +10,12 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import torch
-from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
 from krl.agent.config import AgentConfig
 from krl.agent.observation import observation_size
 from krl.agent.policy import Policy
+from krl.agent.sb3_adapter import OwnHeadsPolicy, actor_layers
 
 
 def _tanh_layers(width: int, hidden: list[int]) -> torch.nn.Sequential:
@@ -75,23 +75,20 @@ class SplitHeads(torch.nn.Module):
         return self.value_net(features[:, self.half :])
 
 
-class PrivilegedCriticPolicy(ActorCriticPolicy):
+class PrivilegedCriticPolicy(OwnHeadsPolicy):
     """SB3's actor-critic whose critic sees privileged features the actor does not: built with
     :class:`SplitExtractor` (``features_extractor_kwargs`` give ``hidden`` and ``actor_size``) and
     :class:`SplitHeads` (``net_arch = {"pi": [...], "vf": [...]}``)."""
 
-    def _build_mlp_extractor(self) -> None:
-        self.mlp_extractor = SplitHeads(
-            self.features_dim, list(self.net_arch["pi"]), list(self.net_arch["vf"])
-        )
+    heads = SplitHeads
 
 
 def actor_modules(policy) -> list[torch.nn.Module]:
     """The actor's modules of an SB3 policy built here, input to action: the (actor's) extractor layers,
     its own layers, the action layer."""
-    extractor = policy.features_extractor
+    extractor, own_layers, action_layer = actor_layers(policy)
     tower = extractor.actor if isinstance(extractor, SplitExtractor) else extractor.net
-    return [*tower, *policy.mlp_extractor.policy_net, policy.action_net]
+    return [*tower, *own_layers, action_layer]
 
 
 def export_policy(model, normaliser, config: AgentConfig, metadata: dict[str, Any]) -> Policy:

@@ -32,6 +32,16 @@ import numpy as np
 import torch
 from torch.nn import functional
 
+from krl.agent.sb3_adapter import (
+    action_log_std,
+    clip_range_now,
+    count_update,
+    evaluate_with_means,
+    rollout_minibatches,
+    rollout_values_and_returns,
+    update_count,
+    update_learning_rate,
+)
 from krl.agent.symmetry import SignedPermutation
 
 
@@ -70,13 +80,13 @@ def ppo_update(model, observation_mirror: SignedPermutation, action_mirror: Sign
     """
     policy = model.policy
     policy.set_training_mode(True)
-    model._update_learning_rate(policy.optimizer)
-    clip_range = model.clip_range(model._current_progress_remaining)
+    update_learning_rate(model)
+    clip_range = clip_range_now(model)
     mirror_obs = NormalisedMirror.of(observation_mirror, model.get_vec_normalize_env(), model.device)
     logs: dict[str, list[float]] = {}
     for _ in range(model.n_epochs):
         logs["approx_kl"] = []  # SB3 logs the last epoch's
-        for batch in model.rollout_buffer.get(model.batch_size):
+        for batch in rollout_minibatches(model):
             loss, values = _minibatch_loss(model, batch, clip_range, mirror_obs, action_mirror)
             for name, value in values.items():
                 logs.setdefault(name, []).append(value)
@@ -84,7 +94,7 @@ def ppo_update(model, observation_mirror: SignedPermutation, action_mirror: Sign
             loss.backward()
             torch.nn.utils.clip_grad_norm_(policy.parameters(), model.max_grad_norm)
             policy.optimizer.step()
-        model._n_updates += 1
+        count_update(model)
     _log(model, logs, clip_range)
 
 
@@ -94,8 +104,8 @@ def _minibatch_loss(model, batch, clip_range: float, mirror_obs: NormalisedMirro
     and take the mirror error from those passes."""
     advantages, returns, old_log_prob = batch.advantages, batch.returns, batch.old_log_prob
     mirrored_obs, mirrored_actions = mirror_obs(batch.observations), mirror_act(batch.actions)
-    values, log_prob, entropy, means = _evaluate(model.policy, batch.observations, batch.actions)
-    mirror = _evaluate(model.policy, mirrored_obs, mirrored_actions)
+    values, log_prob, entropy, means = evaluate_with_means(model.policy, batch.observations, batch.actions)
+    mirror = evaluate_with_means(model.policy, mirrored_obs, mirrored_actions)
     action_error = functional.mse_loss(mirror[3], mirror_act(means))
     if model.symmetry == "augment":
         values, log_prob, entropy = (
@@ -127,25 +137,14 @@ def _minibatch_loss(model, batch, clip_range: float, mirror_obs: NormalisedMirro
     return loss, logged
 
 
-def _evaluate(policy, observations, actions) -> tuple[torch.Tensor, ...]:
-    """SB3's ``evaluate_actions`` of a policy whose actor and critic share their features, with the mean
-    action: ``(values (B,), log-probabilities (B,), entropies (B,), mean actions (B, A))``."""
-    latent_pi, latent_vf = policy.mlp_extractor(policy.extract_features(observations))
-    means = policy.action_net(latent_pi)
-    distribution = policy.action_dist.proba_distribution(means, policy.log_std)
-    values = policy.value_net(latent_vf).flatten()
-    return values, distribution.log_prob(actions), distribution.entropy(), means
-
-
 def _log(model, logs: dict[str, list[float]], clip_range: float) -> None:
     """SB3's ``train/*`` records of an update (the last minibatch's loss, the others' means)."""
     from stable_baselines3.common.utils import explained_variance
 
-    buffer = model.rollout_buffer
     record = model.logger.record
     for name, values in logs.items():
         record(f"train/{name}", values[-1] if name == "loss" else float(np.mean(values)))
-    record("train/explained_variance", explained_variance(buffer.values.flatten(), buffer.returns.flatten()))
-    record("train/std", torch.exp(model.policy.log_std).mean().item())
-    record("train/n_updates", model._n_updates, exclude="tensorboard")
+    record("train/explained_variance", explained_variance(*rollout_values_and_returns(model)))
+    record("train/std", torch.exp(action_log_std(model.policy)).mean().item())
+    record("train/n_updates", update_count(model), exclude="tensorboard")
     record("train/clip_range", clip_range)

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import os
 import signal
-from collections import deque
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -70,6 +69,7 @@ from krl.agent.run_folder import (
     software,
     starting_point,
 )
+from krl.agent.sb3_adapter import UnsavedSettingsPPO, restore_counters
 from krl.agent.symmetric_ppo import ppo_update
 from krl.agent.symmetry import MirrorError, SignedPermutation, action_mirror, observation_mirror
 from krl.agent.terrain_curriculum import TerrainCurriculumLog, saved_levels
@@ -95,17 +95,18 @@ class LearningRate:
         return float(self.ppo.learning_rate_at((1.0 - progress_remaining) * self.total_steps))
 
 
-class ThreadedPPO(PPO):
+class ThreadedPPO(UnsavedSettingsPPO):
     """SB3's PPO whose update runs on ``update_threads`` PyTorch threads, and everything else on one.
 
     The environment workers step while PyTorch computes the rollout's actions, so more threads would only
     fight them for the cores. The update defaults to one thread too: on a machine with other work (a second
-    training, an evaluation) two threads made one update 9-18 x slower than one (PyTorch's OpenMP threads
-    wait for each other at every operation), and with the machine to itself they saved only ~4 % of a
-    training's wall time (``benchmarks/README.md``, "PPO's update: one thread").
+    training, an evaluation) more threads make an update much slower (PyTorch's OpenMP threads wait for
+    each other at every operation), and with the machine to itself they save little of a training's wall
+    time (measured in ``benchmarks/README.md``, "PPO's update: one thread").
     """
 
     update_threads: int = 1
+    unsaved_settings = ("update_threads",)
 
     def train(self) -> None:
         torch.set_num_threads(self.update_threads)
@@ -117,9 +118,6 @@ class ThreadedPPO(PPO):
     def _update(self) -> None:
         """One PPO update after a rollout: SB3's."""
         super().train()
-
-    def _excluded_save_params(self) -> list[str]:
-        return [*super()._excluded_save_params(), "update_threads"]
 
 
 class SymmetricPPO(ThreadedPPO):
@@ -133,13 +131,16 @@ class SymmetricPPO(ThreadedPPO):
     mirror_loss_coef: float = 1.0
     observation_mirror: SignedPermutation
     action_mirror: SignedPermutation
+    unsaved_settings = (
+        *ThreadedPPO.unsaved_settings,
+        "symmetry",
+        "mirror_loss_coef",
+        "observation_mirror",
+        "action_mirror",
+    )
 
     def _update(self) -> None:
         ppo_update(self, self.observation_mirror, self.action_mirror)
-
-    def _excluded_save_params(self) -> list[str]:
-        mirror_settings = ["symmetry", "mirror_loss_coef", "observation_mirror", "action_mirror"]
-        return [*super()._excluded_save_params(), *mirror_settings]
 
 
 def mirrors(config: AgentConfig, kernel_path: str) -> tuple[SignedPermutation, SignedPermutation]:
@@ -216,9 +217,10 @@ def train(
             the environments always run on the CPU workers.
         update_threads: PyTorch threads for PPO's update on the CPU, >= 1 (:class:`ThreadedPPO`); more
             than one only pays when nothing else runs on the machine. Results differ by rounding only.
-        callbacks: more SB3 callbacks, called after krl's own (so a rollout's ``episode/*`` values are in
-            ``logger.name_to_value`` at ``_on_rollout_end``); one whose ``_on_step`` returns False ends the
-            training early, saving its last checkpoint and policy as at the end (an agent study's pruning).
+        callbacks: more SB3 callbacks, called after krl's own (so a rollout's ``episode/*`` values are
+            logged, :func:`krl.agent.sb3_adapter.logged_value`, at ``_on_rollout_end``); one whose
+            ``_on_step`` returns False ends the training early, saving its last checkpoint and policy as
+            at the end (an agent study's pruning).
 
     Raises:
         TrainingError: (one line, before anything is written) a run folder or checkpoint that cannot be
@@ -376,10 +378,7 @@ def _resume(model: PPO, checkpoint: Checkpoint) -> None:
     training reads (weights, optimiser state, the normaliser's statistics and settings, env steps, update
     count, the recent episodes behind ``rollout/ep_rew_mean``), and nothing else."""
     _load(model, checkpoint, settings=True)
-    model.num_timesteps = checkpoint.num_timesteps
-    model._n_updates = checkpoint.n_updates
-    model.ep_info_buffer = deque(checkpoint.episodes, maxlen=model._stats_window_size)
-    model.ep_success_buffer = deque(maxlen=model._stats_window_size)
+    restore_counters(model, checkpoint.num_timesteps, checkpoint.n_updates, checkpoint.episodes)
 
 
 def _start_from(model: PPO, checkpoint: Checkpoint) -> None:

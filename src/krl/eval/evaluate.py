@@ -52,10 +52,9 @@ RESULT_FORMAT = 1
 
 BATCH_RUNS = 128
 """Most runs in one job of a worker (:func:`batch_jobs`): eight for each robot of a batch
-(:data:`krl.eval.batch.BATCH_SLOTS`). A batch's robots idle while its last runs end, half of its robot
-steps in a job of 32 push attempts at 700 N; jobs of 128 cost 12 % less CPU per control step on a push
-sweep (benchmarks/README.md), and an interrupted evaluation loses at most a job per worker (about 40 s of
-CPU in a push sweep)."""
+(:data:`krl.eval.batch.BATCH_SLOTS`). A batch's robots idle while its last runs end, so longer jobs cost
+less CPU per control step, and an interrupted evaluation loses at most a job per worker: the choice and its
+measured cost are in benchmarks/README.md ("Idle robots, jobs and the networks' bound")."""
 
 HOW_DONE = ("ran", "stored", "shared")
 """How a task's record became available: its run ran in this call; it was stored already; or it is the

@@ -3,9 +3,9 @@
 A kernel is an MLP from normalised inputs to normalised foot positions, plus the input/output
 normalisation (mean, std) fitted on the training data and the metadata that says how it was made. It
 is saved as one ``.npz`` file of plain arrays and a JSON metadata string, loaded with
-``allow_pickle=False``: loading never executes code. Inference runs in NumPy (a 4 × 256 MLP costs
-~30 µs per control step, far less than a PyTorch call's overhead); training uses PyTorch
-(:mod:`krl.kernel.train`).
+``allow_pickle=False``: loading never executes code. Inference runs in NumPy (a small MLP's forward pass
+costs less than a PyTorch call's overhead: benchmarks/README.md, "Figures behind constants and design
+choices"); training uses PyTorch (:mod:`krl.kernel.train`).
 """
 
 from __future__ import annotations

@@ -4,6 +4,7 @@ BLAS sums ``x @ W.T`` for a one-row ``x`` and for a many-row ``x`` in different 
 can differ in its last bits with the rows computed beside it. A robot walked alone and the same robot
 walked in a batch must make the same steps (the walk is chaotic: a last-bit difference grows into another
 run), so batched evaluation computes every row as a batch of one row (``rowwise=True``).
+``tests/test_bit_exactness.py`` holds the networks made of it, and the state readout, to that rule.
 """
 
 from __future__ import annotations

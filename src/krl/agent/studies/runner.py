@@ -40,6 +40,7 @@ from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback
 
+from krl.agent.sb3_adapter import logged_value
 from krl.agent.studies.designs import StudyDesign, merged
 from krl.util.optuna_storage import HEARTBEAT, check_study_database, check_url, masked, study_storage
 
@@ -326,7 +327,7 @@ class PruningReport(BaseCallback):
         self.pruned = False
 
     def _on_rollout_end(self) -> None:
-        value = self.logger.name_to_value.get("episode/targets_reached")
+        value = logged_value(self, "episode/targets_reached")
         if value is not None:
             self.trial.report(float(value), step=int(self.num_timesteps))
             self.pruned = self.trial.should_prune()

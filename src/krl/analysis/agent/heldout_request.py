@@ -8,7 +8,8 @@ import dataclasses
 from pathlib import Path
 
 HELDOUT_BATCH: int = 32
-"""Episodes walked at once, their environments built together (about 14 MB each): a larger count is
+"""Episodes walked at once, their environments built together (their memory: benchmarks/README.md,
+"Figures behind constants and design choices"): a larger count is
 walked in batches of this many, environment ``k`` still seeded
 :data:`krl.analysis.agent.heldout.HELDOUT_SEED` ``+ k``, so memory does not grow with the count. A count up
 to this (the documented 32) is one batch, walked as it always was."""
@@ -16,8 +17,8 @@ to this (the documented 32) is one batch, walked as it always was."""
 MAX_EPISODES: int = 1024
 """The most held-out episodes per policy file: 32 batches, a machine-day of 60 s episodes on a few cores.
 What still grows with the count is small: each episode's record and, for a policy that drives its gait,
-the driven numbers of every step (:func:`krl.analysis.agent.heldout.drive_usage`; at most about 0.4 GB
-here)."""
+the driven numbers of every step (:func:`krl.analysis.agent.heldout.drive_usage`; their memory at this
+count: benchmarks/README.md)."""
 
 PolicyGroups = dict[str, list[tuple[int | None, Path]]]
 """Policy files by label: ``{label: [(seed or None, path)]}``."""

@@ -366,7 +366,7 @@ def _ground_rows(seeds: Sequence[int]) -> tuple[Row, ...]:
     ablation, more = _gait_seed_split(seeds)
     policies = " ".join(f"--policy {name}={_GROUND_TRIALS}/{name}-seed*" for name in variants)
     return (
-        # each pair of 2e7-step runs at once took 2 h 3 min - 2 h 7 min (2026-12-05)
+        # a run's minutes: benchmarks/README.md, "Wall times of the reproduce pipeline"
         _gait_study_row(
             "gait-ground",
             "the ground study's runs",

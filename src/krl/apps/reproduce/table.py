@@ -33,19 +33,18 @@ T = TypeVar("T")
 
 AGENT_SEED_EVALUATION_MINUTES: float = 5.0
 """Wall time of one agent seed's full evaluation on both cores of the development machine [min]: the
-thesis's and the harder courses, the default push sweep at 50 attempts per force and the friction sweep
-(rp-sym's two seeds took 9.3 min in ``examples/robust/agent-robust.sh`` on 2026-12-07)."""
+thesis's and the harder courses, the default push sweep at 50 attempts per force and the friction sweep.
+Measured: benchmarks/README.md, "Wall times of the reproduce pipeline"."""
 EXPERT_EVALUATION_MINUTES: float = 35.0
 """Wall time of the MPC expert's full evaluation (the same courses and sweeps) on both cores of the
-development machine [min]: the expert's and the kernel's together in agent-gait's evaluation of 2026-12-05
-(one robot per process then), so an upper bound where the expert walks alone (agent-robust's)."""
+development machine [min], an upper bound. Measured: benchmarks/README.md, "Wall times of the reproduce
+pipeline"."""
 AGENT_PUSHES_PER_MINUTE: float = 450.0
-"""Push attempts one agent walks per minute on both cores of the development machine (agent-robust's four
-seeds in the left-right sweep of 2026-12-07: 8 960 attempts in 19.7 min; rp-sym's balanced sweep: 1 344 in
-2.8 min)."""
+"""Push attempts one agent walks per minute on both cores of the development machine. Measured:
+benchmarks/README.md, "Wall times of the reproduce pipeline"."""
 EXPERT_PUSHES_PER_MINUTE: float = 64.0
-"""Push attempts the MPC expert walks per minute on both cores of the development machine (the left-right
-sweep of 2026-12-07: about 64 attempts in each minute of its first 5)."""
+"""Push attempts the MPC expert walks per minute on both cores of the development machine. Measured:
+benchmarks/README.md, "Wall times of the reproduce pipeline"."""
 
 
 @dataclass(frozen=True)
