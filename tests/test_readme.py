@@ -122,6 +122,7 @@ SMOKE: dict[str, tuple[str, str | None]] = {
         "--frictions 0.5 --friction-course mine.toml --workers 1 --quiet",
         None,
     ),
+    "krl evaluate --controller kernel --stair-sweep": ("--risers 4 --workers 1 --quiet", None),
     "krl report": ("", None),
     "krl agent digest --json": ("--envs 1 --steps 5", None),
     "krl agent config runs/agent-rp/config.json loss.json --out my.json": ("", None),
