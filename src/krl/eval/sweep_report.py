@@ -107,11 +107,17 @@ def push_left_right_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> l
 def friction_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
     """One row per (controller, course, μ) of the friction sweep (a seed group's pooled over its seeds,
     then one row per (seed, course, μ) with its ``seed``); the thesis has none."""
+    return _sweep_rows(found, FRICTION_DIR, summarise_friction, summarise_friction_by_seed)
+
+
+def _sweep_rows(found, group: str, pooled, by_seed) -> list[dict[str, Any]]:
+    """Each controller's rows of the sweep whose records are under ``group``: ``pooled(records)``, then
+    ``by_seed(records)``, each row with its ``controller``."""
     rows = []
     for label, groups in found.items():
-        records = groups.get(FRICTION_DIR, [])
-        rows += [{"controller": label, **row} for row in summarise_friction(records)]
-        rows += [{"controller": label, **row} for row in summarise_friction_by_seed(records)]
+        records = groups.get(group, [])
+        rows += [{"controller": label, **row} for row in pooled(records)]
+        rows += [{"controller": label, **row} for row in by_seed(records)]
     return rows
 
 
@@ -378,12 +384,7 @@ def _plot_panels(path: Path, rows: list[dict[str, Any]], panel: str, x: str, tit
 def stair_rows(found: dict[str, dict[str, list[dict[str, Any]]]]) -> list[dict[str, Any]]:
     """One row per (controller, riser, direction) of the stair sweep (a seed group's pooled over its seeds,
     then one row per (seed, riser, direction) with its ``seed``)."""
-    rows = []
-    for label, groups in found.items():
-        records = groups.get(STAIR_DIR, [])
-        rows += [{"controller": label, **row} for row in summarise_stairs(records)]
-        rows += [{"controller": label, **row} for row in summarise_stairs_by_seed(records)]
-    return rows
+    return _sweep_rows(found, STAIR_DIR, summarise_stairs, summarise_stairs_by_seed)
 
 
 def stairs_markdown(rows: list[dict[str, Any]]) -> str:
