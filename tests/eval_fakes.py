@@ -104,30 +104,30 @@ class PointBatch:
 
 
 class PointSim:
-    """A point robot as :class:`krl.sim.robot.A1Sim` is one robot: a :class:`PointBatch` of one (by
-    default walking +x 0.25 m per control step)."""
+    """A point robot as :class:`krl.sim.robot.A1Sim` is one robot: a :class:`PointBatch` of one as its
+    ``backend`` (by default walking +x 0.25 m per control step)."""
 
     def __init__(self, speed_per_step=0.25, fall_at=None, turn_per_step=0.0, diverge_at=None):
-        self.batch = PointBatch(speed_per_step, turn_per_step, fall_at, diverge_at)
+        self.backend = PointBatch(speed_per_step, turn_per_step, fall_at, diverge_at)
 
     @property
     def state(self):
-        return self.batch.state
+        return self.backend.state
 
     @property
     def step_count(self):
-        return self.batch.steps
+        return self.backend.steps
 
     @property
     def time(self):
-        return self.batch.steps * CONTROL_DT
+        return self.backend.steps * CONTROL_DT
 
     @property
     def pushed(self):
-        return self.batch.pushed
+        return self.backend.pushed
 
     def reset(self, xy=(0.0, 0.0), yaw=0.0):
-        return self.batch.reset(0, xy, yaw)
+        return self.backend.reset(0, xy, yaw)
 
 
 class StandStill:

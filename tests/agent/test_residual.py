@@ -37,7 +37,7 @@ def test_zero_action_reproduces_the_kernels_joint_targets_exactly():
 
 
 def test_the_filter_follows_eq_4_4_and_resets_per_robot():
-    config = ResidualConfig(residual_bound=(0.02, 0.03, 0.04), alpha=0.1)
+    config = ResidualConfig(residual_bound=(0.02, 0.03, 0.04), residual_alpha=0.1)
     residual = ResidualController(load_model("base"), config, 2)
     sim = A1Sim(build_model("flat"))
     states = StateBatch.from_states([sim.state, sim.state])
@@ -54,7 +54,7 @@ def test_the_filter_follows_eq_4_4_and_resets_per_robot():
 
 
 def test_actions_are_clipped_to_the_residual_bound():
-    config = ResidualConfig(residual_bound=(0.05, 0.05, 0.08), alpha=1.0)
+    config = ResidualConfig(residual_bound=(0.05, 0.05, 0.08), residual_alpha=1.0)
     residual = ResidualController(load_model("base"), config, 1)
     sim = A1Sim(build_model("flat"))
     states = StateBatch.from_states([sim.state])
@@ -72,7 +72,7 @@ def test_actions_are_clipped_to_the_residual_bound():
     [
         ({"residual_bound": (0.05, 0.05)}, "3 values"),
         ({"residual_bound": (0.05, -1.0, 0.05)}, "positive"),
-        ({"alpha": 0.0}, r"alpha must be in \(0, 1\]"),
+        ({"residual_alpha": 0.0}, r"residual_alpha must be in \(0, 1\]"),
     ],
 )
 def test_bad_residual_settings_are_refused(kwargs, message):

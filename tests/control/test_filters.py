@@ -5,11 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from krl.control.filters import DEFAULT_ALPHA, LowPassFilter
+from krl.control.filters import RESIDUAL_ALPHA, LowPassFilter
 
 
 def test_default_alpha_is_the_thesis_value():
-    assert DEFAULT_ALPHA == 0.1
+    assert RESIDUAL_ALPHA == 0.1
     assert LowPassFilter((12,)).alpha == 0.1
 
 

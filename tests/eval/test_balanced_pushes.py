@@ -156,13 +156,13 @@ def test_the_draw_is_in_every_record_and_a_resume_with_another_is_refused(tmp_pa
     balanced = PushSweep(
         magnitudes=(300.0,), attempts=4, window=(0.05, 0.1), time_limit=0.3, directions="balanced"
     )
-    tasks = evaluate.push_tasks(parse_controller("kernel"), balanced)
-    records = evaluate.execute(tasks, tmp_path)
+    runs = evaluate.push_runs(parse_controller("kernel"), balanced)
+    records = evaluate.execute(runs, tmp_path)
     assert [r["sweep"]["directions"] for r in records] == ["balanced"] * 4
     assert [push_direction(r) for r in records] == list(PUSH_DIRECTIONS)
     uniform = PushSweep(magnitudes=(300.0,), attempts=4, window=(0.05, 0.1), time_limit=0.3)
     with pytest.raises(EvaluationError, match="made by a different push sweep than this run"):
-        evaluate.execute(evaluate.push_tasks(parse_controller("kernel"), uniform), tmp_path)
+        evaluate.execute(evaluate.push_runs(parse_controller("kernel"), uniform), tmp_path)
 
 
 def test_cli_records_the_draw_in_the_summary_and_refuses_a_resume_with_another(tmp_path, capsys, monkeypatch):
@@ -172,7 +172,7 @@ def test_cli_records_the_draw_in_the_summary_and_refuses_a_resume_with_another(t
     original = PushSweep.walk
     monkeypatch.setattr(PushSweep, "walk", walk)
     # each run alone (one worker: in this process), so that the sweep walks the fake robot
-    monkeypatch.setattr(evaluate, "run_tasks", lambda tasks: [evaluate.run_task(task) for task in tasks])
+    monkeypatch.setattr(evaluate, "run_job", lambda runs: [evaluate.run_one(run) for run in runs])
     out = tmp_path / "out"
     argv = ["evaluate", "--controller", "kernel", "--push-sweep", "--magnitudes", "300", "--attempts", "4"]
     argv += ["--out", str(out), "--workers", "1", "--quiet", "--json"]

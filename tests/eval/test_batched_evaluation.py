@@ -9,7 +9,7 @@ from krl.eval.batch import run_batch
 from krl.eval.controllers import parse_controller
 from krl.eval.courses import load_course
 from krl.eval.episodes import PushSweep
-from krl.eval.evaluate import course_tasks, push_tasks, run_task
+from krl.eval.evaluate import course_runs, push_runs, run_one
 
 HEIGHTFIELD_COURSE = """
 format = 1
@@ -40,10 +40,10 @@ def test_runs_walked_in_a_batch_make_the_records_they_make_alone(tmp_path, monke
     spec = parse_controller(text)
     seeds = spec.seeds[:1] if spec.seeded else None
     # the course last: its runs end the batch, and some finish (a robot whose task is over waits)
-    tasks = push_tasks(spec, SWEEP, seeds) + course_tasks(spec, [load_course(str(path))], seeds)
+    runs = push_runs(spec, SWEEP, seeds) + course_runs(spec, [load_course(str(path))], seeds)
     monkeypatch.setattr(batch, "BATCH_SLOTS", 3)  # fewer robots than runs: slots start second runs
-    batched = run_batch(tasks)
-    alone = [run_task(task) for task in tasks]
+    batched = run_batch(runs)
+    alone = [run_one(run) for run in runs]
     assert [without_wall_time(r) for r in batched] == [without_wall_time(r) for r in alone]
     endings = {record["metrics"]["ended"] for record in alone}
     assert "fell" in endings and len(endings) >= 2
@@ -53,23 +53,23 @@ def test_a_batch_refuses_runs_of_two_controllers(tmp_path):
     path = tmp_path / "rough-short.toml"
     path.write_text(HEIGHTFIELD_COURSE)
     course = load_course(str(path))
-    tasks = course_tasks(parse_controller("kernel"), [course]) + course_tasks(
+    runs = course_runs(parse_controller("kernel"), [course]) + course_runs(
         parse_controller("expert"), [course]
     )
     with pytest.raises(ValueError, match="one controller and seed"):
-        run_batch(tasks)
+        run_batch(runs)
 
 
 def test_jobs_batch_consecutive_runs_of_one_controller_and_seed(tmp_path):
-    from krl.eval.evaluate import BATCH_RUNS, Task, batch_jobs
+    from krl.eval.evaluate import BATCH_RUNS, EvalRun, batch_jobs
 
     agent, expert = parse_controller("agent:gait-ground"), parse_controller("expert")
-    runs = [Task(f"c/start{k}", agent, seed=150) for k in range(2 * BATCH_RUNS + 3)]
+    runs = [EvalRun(f"c/start{k}", agent, seed=150) for k in range(2 * BATCH_RUNS + 3)]
     runs += [
-        Task("c/film", agent, seed=150, video=str(tmp_path / "a.mp4")),
-        Task("c/start0", agent, seed=215),
+        EvalRun("c/film", agent, seed=150, video=str(tmp_path / "a.mp4")),
+        EvalRun("c/start0", agent, seed=215),
     ]
-    runs += [Task(f"c/start{k}", expert) for k in range(3)]
+    runs += [EvalRun(f"c/start{k}", expert) for k in range(3)]
     jobs = batch_jobs(runs, workers=2)
     half = BATCH_RUNS // 2 + 1  # 2 x BATCH_RUNS + 3 runs in four jobs, two for each worker
     assert [len(job) for job in jobs] == [half, half, half, 2 * BATCH_RUNS + 3 - 3 * half, 1, 1, 1, 1, 1]
@@ -110,8 +110,8 @@ def test_a_policy_that_scans_the_ground_makes_the_same_records_batched_and_alone
     rough = tmp_path / "rough-short.toml"
     rough.write_text(HEIGHTFIELD_COURSE)
     spec = parse_controller(f"agent:{path}")
-    tasks = course_tasks(spec, [load_course(str(course)), load_course(str(rough))], spec.seeds)
+    runs = course_runs(spec, [load_course(str(course)), load_course(str(rough))], spec.seeds)
     monkeypatch.setattr(batch, "BATCH_SLOTS", 2)
-    batched = run_batch(tasks)
-    alone = [run_task(task) for task in tasks]
+    batched = run_batch(runs)
+    alone = [run_one(run) for run in runs]
     assert [without_wall_time(r) for r in batched] == [without_wall_time(r) for r in alone]

@@ -34,35 +34,35 @@ def tiny(tmp_path):
 
 def test_runs_are_stored_and_not_redone(tmp_path, tiny):
     spec = parse_controller("kernel")
-    tasks = evaluate.course_tasks(spec, [load_course(tiny)], seeds=[150, 215])
-    assert [t.key for t in tasks] == ["tiny/start0", "tiny/start1"]  # the kernel does not depend on a seed
+    runs = evaluate.course_runs(spec, [load_course(tiny)], seeds=[150, 215])
+    assert [t.key for t in runs] == ["tiny/start0", "tiny/start1"]  # the kernel does not depend on a seed
     seen = []
-    records = evaluate.execute(tasks, tmp_path / "out", on_done=lambda task, record, how: seen.append(how))
+    records = evaluate.execute(runs, tmp_path / "out", on_done=lambda run, record, how: seen.append(how))
     assert seen == ["ran", "ran"]
     assert [p.name for p in (tmp_path / "out" / "kernel-base").iterdir()] == ["part-00000.parquet"]
     assert records[0]["metrics"]["steps"] == 50 and records[0]["metrics"]["timed_out"] is True
     seen.clear()
-    again = evaluate.execute(tasks, tmp_path / "out", on_done=lambda task, record, how: seen.append(how))
+    again = evaluate.execute(runs, tmp_path / "out", on_done=lambda run, record, how: seen.append(how))
     assert seen == ["stored", "stored"] and again == records
 
 
 def test_two_controllers_keep_their_own_records(tmp_path, tiny):
     course = load_course(tiny)
-    tasks = [
-        *evaluate.course_tasks(parse_controller("kernel"), [course], [0]),
-        *evaluate.course_tasks(parse_controller("kernel:ext"), [course], [0]),
+    runs = [
+        *evaluate.course_runs(parse_controller("kernel"), [course], [0]),
+        *evaluate.course_runs(parse_controller("kernel:ext"), [course], [0]),
     ]
     for _ in range(2):  # run, then read back from storage
-        records = evaluate.execute(tasks, tmp_path)
+        records = evaluate.execute(runs, tmp_path)
         labels = [r["controller"]["label"] for r in records]
         assert labels == ["kernel-base", "kernel-base", "kernel-ext", "kernel-ext"]
         assert records[0]["metrics"] != records[2]["metrics"]
 
 
 def test_results_do_not_depend_on_the_worker_count(tmp_path, tiny):
-    tasks = evaluate.course_tasks(parse_controller("kernel"), [load_course(tiny)], seeds=[0])
-    one = evaluate.execute(tasks, tmp_path / "one", workers=1)
-    two = evaluate.execute(tasks, tmp_path / "two", workers=2)
+    runs = evaluate.course_runs(parse_controller("kernel"), [load_course(tiny)], seeds=[0])
+    one = evaluate.execute(runs, tmp_path / "one", workers=1)
+    two = evaluate.execute(runs, tmp_path / "two", workers=2)
     for a, b in zip(one, two, strict=True):
         a["metrics"].pop("wall_seconds"), b["metrics"].pop("wall_seconds")
         assert a == b
@@ -71,9 +71,9 @@ def test_results_do_not_depend_on_the_worker_count(tmp_path, tiny):
 def test_a_changed_course_or_a_corrupt_file_is_refused(tmp_path, tiny):
     spec = parse_controller("kernel")
     out = tmp_path / "out"
-    evaluate.execute(evaluate.course_tasks(spec, [load_course(tiny)], [0]), out)
+    evaluate.execute(evaluate.course_runs(spec, [load_course(tiny)], [0]), out)
     tiny.write_text(TINY.replace("[3.0, 0.0]", "[4.0, 0.0]"))
-    changed = evaluate.course_tasks(spec, [load_course(tiny)], [0])
+    changed = evaluate.course_runs(spec, [load_course(tiny)], [0])
     with pytest.raises(evaluate.EvaluationError, match="made by a different course than this run"):
         evaluate.execute(changed, out)
     part = out / "kernel-base" / "part-00000.parquet"
@@ -84,9 +84,9 @@ def test_a_changed_course_or_a_corrupt_file_is_refused(tmp_path, tiny):
 
 def test_push_sweep_records_the_push(tmp_path):
     sweep = PushSweep(magnitudes=(300.0, 600.0), attempts=1, window=(0.05, 0.1), time_limit=0.3)
-    tasks = evaluate.push_tasks(parse_controller("kernel"), sweep)
-    assert [t.key for t in tasks] == ["push/m300-a0", "push/m600-a0"]
-    records = evaluate.execute(tasks, tmp_path)
+    runs = evaluate.push_runs(parse_controller("kernel"), sweep)
+    assert [t.key for t in runs] == ["push/m300-a0", "push/m600-a0"]
+    records = evaluate.execute(runs, tmp_path)
     push = records[1]["metrics"]["push"]
     assert push["magnitude"] == pytest.approx(600.0)
     assert push["impulse"] == pytest.approx(600.0 * 60 * 0.001)  # 60 control steps, 1 ms each
@@ -201,11 +201,11 @@ def test_video_of_the_first_run(tmp_path, tiny):
         FrameRenderer(load_course(tiny).build().model, 32, 32).close()
     except RenderError as error:
         pytest.skip(f"offscreen rendering unavailable: {error}")
-    tasks = evaluate.course_tasks(
+    runs = evaluate.course_runs(
         parse_controller("kernel"), [load_course(tiny)], [0], video_dir=tmp_path / "v"
     )
-    assert [t.video is not None for t in tasks] == [True, False]
-    evaluate.execute(tasks, tmp_path / "out")
+    assert [t.video is not None for t in runs] == [True, False]
+    evaluate.execute(runs, tmp_path / "out")
     video = tmp_path / "v" / "kernel-base" / "tiny-start0.mp4"
     assert video.stat().st_size > 1000
 
@@ -313,17 +313,17 @@ def test_two_different_runs_never_share_a_result_file(tmp_path, tiny):
 
     course = load_course(tiny)
     other = replace(course, waypoints=((4.0, 0.0),))  # same name, other content
-    tasks = evaluate.course_tasks(parse_controller("kernel"), [course, other], [0])
+    runs = evaluate.course_runs(parse_controller("kernel"), [course, other], [0])
     with pytest.raises(
         evaluate.EvaluationError, match=r"run kernel-base tiny/start0 would be two different runs"
     ):
-        evaluate.execute(tasks, tmp_path / "out")
+        evaluate.execute(runs, tmp_path / "out")
     assert not (tmp_path / "out").exists()
     kernel = parse_controller("kernel")
     impostor = replace(parse_controller("kernel:ext"), label=kernel.label)
-    tasks = [*evaluate.course_tasks(kernel, [course], [0]), *evaluate.course_tasks(impostor, [course], [0])]
+    runs = [*evaluate.course_runs(kernel, [course], [0]), *evaluate.course_runs(impostor, [course], [0])]
     with pytest.raises(evaluate.EvaluationError, match=r"two different runs .*controller"):
-        evaluate.execute(tasks, tmp_path / "out")
+        evaluate.execute(runs, tmp_path / "out")
 
 
 def test_a_refused_evaluation_writes_nothing(tmp_path, tiny, capsys):

@@ -65,8 +65,8 @@ def test_controllers_of_no_file_still_make_their_tasks(tiny):
     from krl.eval.courses import load_course
 
     for text in ("expert", "kernel", "agent:rp@150"):
-        tasks = evaluate.course_tasks(parse_controller(text), [load_course(tiny)], [150, 215])
-        assert [task.key for task in tasks] == ["tiny/start0"]
+        runs = evaluate.course_runs(parse_controller(text), [load_course(tiny)], [150, 215])
+        assert [run.key for run in runs] == ["tiny/start0"]
 
 
 def test_a_seed_group_runs_every_seed_it_holds_unless_told(tmp_path, tiny):
@@ -76,19 +76,19 @@ def test_a_seed_group_runs_every_seed_it_holds_unless_told(tmp_path, tiny):
 
     spec = parse_controller(f"agent:{per_seed_folder(tmp_path / 'agent-mine', [556, 150, 345, 215])}")
     course = load_course(tiny)
-    keys = [task.key for task in evaluate.course_tasks(spec, [course])]
+    keys = [run.key for run in evaluate.course_runs(spec, [course])]
     assert keys == [f"tiny/start0-seed{seed}" for seed in (150, 215, 345, 556)]
-    assert [task.seed for task in evaluate.course_tasks(spec, [course], [345])] == [345]
+    assert [run.seed for run in evaluate.course_runs(spec, [course], [345])] == [345]
     sweep = PushSweep(magnitudes=(300.0,), attempts=2)
-    pushes = evaluate.push_tasks(spec, sweep, [150, 215])
-    assert [(task.key, task.seed) for task in pushes] == [
+    pushes = evaluate.push_runs(spec, sweep, [150, 215])
+    assert [(run.key, run.seed) for run in pushes] == [
         ("push/m300-a0-seed150", 150),
         ("push/m300-a1-seed150", 150),
         ("push/m300-a0-seed215", 215),
         ("push/m300-a1-seed215", 215),
     ]
     assert pushes[0].identity()["seed"] == 150
-    assert "seed" not in evaluate.push_tasks(parse_controller("kernel"), sweep)[0].identity()
+    assert "seed" not in evaluate.push_runs(parse_controller("kernel"), sweep)[0].identity()
 
 
 @pytest.mark.parametrize(

@@ -77,20 +77,20 @@ def test_the_sweeps_runs_of_a_seed_group(tmp_path, tiny):
         make_policy(AgentConfig(), seed=seed).save(folder / f"policy-seed{seed}.npz")
     spec = parse_controller(f"agent:{folder}")
     sweep = FrictionSweep(frictions=(1.0, 0.5), courses=(str(tiny),))
-    tasks = evaluate.friction_tasks(spec, sweep, sweep.load_courses(), video_dir=tmp_path / "v")
-    assert [task.key for task in tasks] == [
+    runs = evaluate.friction_runs(spec, sweep, sweep.load_courses(), video_dir=tmp_path / "v")
+    assert [run.key for run in runs] == [
         f"friction/tiny-mu{mu:g}-start{start}-seed{seed}"
         for mu in (1, 0.5)
         for start in (0, 1)
         for seed in (1, 2)
     ]
-    assert [task.video is not None for task in tasks] == [True, False, False, False] * 2
-    identity = tasks[4].identity()
+    assert [run.video is not None for run in runs] == [True, False, False, False] * 2
+    identity = runs[4].identity()
     assert identity["friction"] == 0.5 and identity["seed"] == 1 and identity["course"] == "tiny"
     assert identity["course_fingerprint"] == FrictionSweep.on(load_course(tiny), 0.5).fingerprint
-    assert tasks[0].course.terrain_params == {"friction": 1.0}
-    assert [task.seed for task in evaluate.friction_tasks(spec, sweep, sweep.load_courses(), [2])] == [2] * 4
-    assert "friction" not in evaluate.course_tasks(spec, [load_course(tiny)])[0].identity()
+    assert runs[0].course.terrain_params == {"friction": 1.0}
+    assert [run.seed for run in evaluate.friction_runs(spec, sweep, sweep.load_courses(), [2])] == [2] * 4
+    assert "friction" not in evaluate.course_runs(spec, [load_course(tiny)])[0].identity()
 
 
 def record(course, friction, seed, success, fell=False, error=None, targets=5):

@@ -17,14 +17,14 @@ from krl.util.machine import machine
 SWEEP = PushSweep(magnitudes=(300.0, 600.0), attempts=2, window=(0.05, 0.1), time_limit=0.15)
 
 
-def tasks_of(tiny, controller="kernel"):
+def runs_of(tiny, controller="kernel"):
     spec = parse_controller(controller)
-    return [*evaluate.course_tasks(spec, [load_course(tiny)]), *evaluate.push_tasks(spec, SWEEP)]
+    return [*evaluate.course_runs(spec, [load_course(tiny)]), *evaluate.push_runs(spec, SWEEP)]
 
 
 def test_records_go_to_one_part_per_controller_and_read_back_equal(tmp_path, tiny):
     out = tmp_path / "out"
-    ran = evaluate.execute(tasks_of(tiny), out)
+    ran = evaluate.execute(runs_of(tiny), out)
     assert sorted(p.name for p in (out / "kernel-base").iterdir()) == ["part-00000.parquet"]
     runs = records.read_runs(out / "kernel-base")
     assert list(runs) == ["push/m300-a0", "push/m300-a1", "push/m600-a0", "push/m600-a1", "tiny/start0"]
@@ -44,7 +44,7 @@ def test_batches_become_parts_and_are_merged_into_one_at_the_end(tmp_path, tiny,
     real = records._next_part
     monkeypatch.setattr(records, "_next_part", lambda *args: parts.append(real(*args)) or parts[-1])
     monkeypatch.setattr(evaluate, "RecordWriter", functools.partial(records.RecordWriter, flush_records=2))
-    evaluate.execute(tasks_of(tiny), out)
+    evaluate.execute(runs_of(tiny), out)
     assert len(parts) == 4  # 2 + 2 + 1 records, then the merged part
     assert [p.name for p in (out / "kernel-base").glob("*.parquet")] == ["part-00000.parquet"]
     assert len(records.read_runs(out / "kernel-base")) == 5
@@ -54,26 +54,26 @@ def test_an_interrupted_evaluation_keeps_every_record_it_reported(tmp_path, tiny
     out = tmp_path / "out"
     seen = []
 
-    def stop_after_two(task, record, how):
-        seen.append(task.key)
+    def stop_after_two(run, record, how):
+        seen.append(run.key)
         if len(seen) == 2:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        evaluate.execute(tasks_of(tiny), out, on_done=stop_after_two)
+        evaluate.execute(runs_of(tiny), out, on_done=stop_after_two)
     assert list(records.read_runs(out / "kernel-base")) == sorted(seen, key=records.run_order)
     how = []
-    evaluate.execute(tasks_of(tiny), out, on_done=lambda task, record, done: how.append(done))
+    evaluate.execute(runs_of(tiny), out, on_done=lambda run, record, done: how.append(done))
     assert how.count("stored") == 2 and how.count("ran") == 3
 
 
 def test_a_half_written_part_is_removed_with_one_line_and_its_runs_redone(tmp_path, tiny, capsys):
     out = tmp_path / "out"
-    evaluate.execute(tasks_of(tiny)[:1], out)
+    evaluate.execute(runs_of(tiny)[:1], out)
     leftover = out / "kernel-base" / ".part-00001.parquet.x1y2z3.tmp"
     leftover.write_bytes(b"PAR1 half")
     how = []
-    evaluate.execute(tasks_of(tiny), out, on_done=lambda task, record, done: how.append(done))
+    evaluate.execute(runs_of(tiny), out, on_done=lambda run, record, done: how.append(done))
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"removed {leftover}" in err and not leftover.exists()
     assert how.count("stored") == 1 and how.count("ran") == 4
@@ -97,7 +97,7 @@ def test_a_damaged_part_is_refused_in_one_line(tmp_path, tiny, capsys):
 
 def test_a_flipped_byte_is_refused_or_changes_nothing(tmp_path, tiny):
     out = tmp_path / "out"
-    evaluate.execute(tasks_of(tiny), out)
+    evaluate.execute(runs_of(tiny), out)
     part = out / "kernel-base" / "part-00000.parquet"
     good, runs = part.read_bytes(), records.read_part(part, "kernel-base")
     refused = 0
@@ -117,7 +117,7 @@ def test_a_part_whose_records_do_not_match_their_hash_is_refused(tmp_path, tiny)
     import pyarrow.parquet as pq
 
     out = tmp_path / "out"
-    evaluate.execute(tasks_of(tiny), out)
+    evaluate.execute(runs_of(tiny), out)
     part = out / "kernel-base" / "part-00000.parquet"
     table = pq.read_table(part)
     texts = table.column("record").to_pylist()
@@ -130,23 +130,23 @@ def test_a_part_whose_records_do_not_match_their_hash_is_refused(tmp_path, tiny)
 
 def test_a_part_of_another_controller_or_course_is_refused(tmp_path, tiny):
     out = tmp_path / "out"
-    evaluate.execute(tasks_of(tiny), out)
-    evaluate.execute(tasks_of(tiny, "kernel:ext"), out)
+    evaluate.execute(runs_of(tiny), out)
+    evaluate.execute(runs_of(tiny, "kernel:ext"), out)
     part = out / "kernel-ext" / "part-00000.parquet"
     part.write_bytes((out / "kernel-base" / "part-00000.parquet").read_bytes())
     with pytest.raises(
         records.EvaluationError, match="holds records of controller 'kernel-base', not 'kernel-ext'"
     ):
-        evaluate.execute(tasks_of(tiny, "kernel:ext"), out)
+        evaluate.execute(runs_of(tiny, "kernel:ext"), out)
     tiny.write_text(tiny.read_text().replace("[3.0, 0.0]", "[4.0, 0.0]"))
     message = r"kernel-base/part-00000\.parquet \(run tiny/start0\) was made by a different course"
     with pytest.raises(records.EvaluationError, match=message):
-        evaluate.execute(tasks_of(tiny), out)
+        evaluate.execute(runs_of(tiny), out)
 
 
 def test_a_run_stored_twice_is_one_run_when_equal_and_refused_when_not(tmp_path, tiny):
     out = tmp_path / "out"
-    evaluate.execute(tasks_of(tiny), out)
+    evaluate.execute(runs_of(tiny), out)
     folder = out / "kernel-base"
     runs = records.read_runs(folder)
     copy = records.write_part(folder, "kernel-base", [runs["tiny/start0"].record])  # a merge cut short
@@ -241,18 +241,18 @@ def test_a_run_redone_for_its_missing_video_replaces_its_record(tmp_path, tiny):
     except RenderError as error:
         pytest.skip(f"offscreen rendering unavailable: {error}")
     spec = parse_controller("kernel")
-    tasks = evaluate.course_tasks(spec, [load_course(tiny)], video_dir=tmp_path / "v")
+    runs = evaluate.course_runs(spec, [load_course(tiny)], video_dir=tmp_path / "v")
     out = tmp_path / "out"
-    first = evaluate.execute(tasks, out)
+    first = evaluate.execute(runs, out)
     (video,) = (tmp_path / "v").rglob("*.mp4")
     video.unlink()
     as_json_layout(out)  # the older layout too: its file goes once a part holds the newer record
     how = []
-    second = evaluate.execute(tasks, out, on_done=lambda task, record, done: how.append(done))
+    second = evaluate.execute(runs, out, on_done=lambda run, record, done: how.append(done))
     assert how == ["ran"] and video.exists()
     assert [p.name for p in (out / "kernel-base").rglob("*.*")] == ["part-00000.parquet"]
     assert records.read_runs(out / "kernel-base")["tiny/start0"].record == second[0]
     assert (
-        evaluate.execute(tasks, out) == second
+        evaluate.execute(runs, out) == second
         and first[0]["metrics"]["steps"] == second[0]["metrics"]["steps"]
     )

@@ -90,7 +90,7 @@ def action_parts(config: ResidualConfig, kernel: Kernel) -> tuple[ActionPart, ..
             ActionPart(
                 "residual",
                 "m",
-                "per foot (FR, FL, RR, RL) an (x, y, z) base-frame residual, filtered with alpha",
+                "per foot (FR, FL, RR, RL) an (x, y, z) base-frame residual, filtered with residual_alpha",
                 tuple(-b for b in bound),
                 (0.0,) * len(bound),
                 bound,

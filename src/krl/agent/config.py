@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from krl.control.commands import CommandParams
-from krl.control.filters import DEFAULT_ALPHA
+from krl.control.filters import RESIDUAL_ALPHA
 from krl.robots.a1.constants import FOOT_FRICTION, NUM_LEGS, STANDING_HEIGHT
 from krl.sim.pushes import Push, PushDistribution
 from krl.sim.terrains import HEIGHTFIELD_MAX_HEIGHT_RANGE, MAX_GROUND_FRICTION, PYRAMIDS_STEP_HEIGHT_RANGE
@@ -77,8 +77,9 @@ class ResidualConfig:
     residual_bound: tuple[float, float, float] = (0.08, 0.08, 0.08)
     """Largest residual per axis (x, y, z) of each foot, base frame [m]: an action of ±1 maps to it.
     Not in the thesis; chosen by measurement (docs/agent.md)."""
-    alpha: float = DEFAULT_ALPHA
-    """Smoothing factor α of the residuals' low-pass filter (Eq. 4.4)."""
+    residual_alpha: float = RESIDUAL_ALPHA
+    """Smoothing factor α of the residuals' low-pass filter (Eq. 4.4); read from ``alpha`` in configs
+    written before it was renamed (:data:`RENAMED_SETTINGS`)."""
     residuals: bool = True
     """The policy adds foot residuals (12 action numbers). Off only where the policy drives the kernel
     alone (the alternative architecture of Section 4.2.8.4)."""
@@ -109,7 +110,7 @@ class ResidualConfig:
             )
         for axis, bound in zip("xyz", self.residual_bound, strict=True):
             _positive(f"residual_bound {axis}", bound)
-        for name in ("alpha", "gait_alpha"):
+        for name in ("residual_alpha", "gait_alpha"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and 0 < value <= 1):
                 raise AgentConfigError(f"{name} must be in (0, 1], got {value!r}")
@@ -603,7 +604,8 @@ class AgentConfig:
         if not paths:
             raise AgentConfigError("no agent config file to read")
         merged: list[dict[str, Any]] = []
-        for table in map(read_table, paths):
+        for path in paths:
+            table = with_current_names(read_table(path), str(path))
             merged.append(lay_over(merged[-1], table) if merged else table)
         try:
             return cls.from_json(merged[-1], " + ".join(map(str, paths)))
@@ -640,11 +642,39 @@ def lay_over(base: Any, layer: Any) -> Any:
     return {**base, **{key: lay_over(base.get(key), value) for key, value in layer.items()}}
 
 
+RENAMED_SETTINGS: dict[tuple[str, str], str] = {("residual", "alpha"): "residual_alpha"}
+"""Settings renamed since configs were first saved, ``(section, old name) -> new name``: a config read
+with the old name means the same as with the new one (every saved ``config.json`` and policy file keeps
+loading); a config is written with the new names only."""
+
+
+def with_current_names(data: Any, where: str) -> Any:
+    """The JSON-like config table ``data`` with each setting of :data:`RENAMED_SETTINGS` under its new
+    name; a one-line AgentConfigError where a section gives both names. Anything not a table of tables is
+    returned as it is (:func:`_from_mapping` refuses it)."""
+    if not isinstance(data, dict):
+        return data
+    renamed = dict(data)
+    for (section, old), new in RENAMED_SETTINGS.items():
+        table = renamed.get(section)
+        if not (isinstance(table, dict) and old in table):
+            continue
+        if new in table:
+            raise AgentConfigError(
+                f"{where}.{section}: both {old!r} and {new!r} are given; {old!r} is the old name of "
+                f"{new!r}: keep one"
+            )
+        renamed[section] = {(new if key == old else key): value for key, value in table.items()}
+    return renamed
+
+
 def _from_mapping(cls: type, data: Any, where: str):
     """``cls`` from a JSON-like table: every key known, every value of its field's type (a list for a
     tuple, an integer for a float); the sections of :class:`AgentConfig` and the reward recursively."""
     if not isinstance(data, dict):
         raise AgentConfigError(f"{where}: expected a table of settings, got {type(data).__name__}")
+    if cls is AgentConfig:
+        data = with_current_names(data, where)
     hints = typing.get_type_hints(cls)
     known = [f.name for f in dataclasses.fields(cls)]
     unknown = sorted(set(data) - set(known))

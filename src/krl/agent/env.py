@@ -325,7 +325,7 @@ class A1ResidualEnv(gym.Env):
     ## Action space
     ``Box(-1, 1, (12,), float32)`` by default: per foot (FR, FL, RR, RL) an (x, y, z) residual in the base
     frame, scaled by ``config.residual.residual_bound`` [m], low-pass filtered (Eq. 4.4, α =
-    ``config.residual.alpha``), added to the kernel's targets, then IK and PD
+    ``config.residual.residual_alpha``), added to the kernel's targets, then IK and PD
     (:class:`krl.agent.residual.ResidualController`). The ``drive_*`` switches of ``config.residual``
     append the kernel's command (3), kernel-ext's step and ride heights (2) and the gait clock's rate (1),
     each mapped onto its range and filtered (:mod:`krl.agent.action`); ``residuals=False`` drops the 12

@@ -72,7 +72,7 @@ class ResidualController:
         self.gait = gait_params(trained.gait, stance_duration=trained.stance_duration)
         self.bound = np.asarray(config.residual_bound, dtype=float)
         """Residual per unit action, (x, y, z) [m]. Shape: (3,)."""
-        self.filter = LowPassFilter((num_robots, NUM_LEGS, 3), config.alpha)
+        self.filter = LowPassFilter((num_robots, NUM_LEGS, 3), config.residual_alpha)
         drives = [part for part in self.parts if part.name in DRIVE_PARTS]
         self._nominal = np.array([0.0, 0.0, 0.0, trained.step_height, trained.ride_height, 1.0])
         self._drive_columns = {

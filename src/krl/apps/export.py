@@ -213,15 +213,16 @@ def _action_contract(residual, kernel) -> dict[str, Any]:
     """The action's size, bounds and parts (:mod:`krl.agent.action`) for the contract."""
     from krl.agent.action import describe_parts
 
+    alphas = {"residual": residual.residual_alpha}
     parts = [
-        {**part, "filter_alpha": residual.alpha if part["name"] == "residual" else residual.gait_alpha}
+        {**part, "filter_alpha": alphas.get(part["name"], residual.gait_alpha)}
         for part in describe_parts(residual, kernel)
     ]
     action: dict[str, Any] = {"size": residual.action_size, "bounds": [-1.0, 1.0], "parts": parts}
     if residual.residuals:
         action["residual_bound_m"] = list(residual.residual_bound)
         action["filter"] = "r_t = alpha * action_t * residual_bound + (1 - alpha) * r_(t-1), r_(-1) = 0"
-        action["filter_alpha"] = residual.alpha
+        action["filter_alpha"] = residual.residual_alpha
     if residual.drives_gait:
         action["drive_filter"] = (
             "d_t = gait_alpha * (value(action_t) - at_0) + (1 - gait_alpha) * d_(t-1), d_(-1) = 0; "

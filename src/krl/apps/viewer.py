@@ -72,7 +72,7 @@ class LiveSession:
     ) -> None:
         self.sim = sim
         self.controller = controller
-        attach_scene(controller, sim.batch)
+        attach_scene(controller, sim.backend)
         self.waypoints = np.asarray(waypoints, dtype=float).reshape(-1, 2)
         self.start = start
         self.params = CommandParams(d_min=d_min)
@@ -95,7 +95,7 @@ class LiveSession:
         if not self.show_scan or senses is None or not senses.sensing.needed:
             return np.zeros((0, 3))
         points = senses.sensing.points
-        heights = self.sim.batch.terrain_heights(points)[0]
+        heights = self.sim.backend.terrain_heights(points)[0]
         state = self.sim.state
         xy = heading_points_to_world(points, state.base_pos, float(state.rpy[2]))
         return np.column_stack([xy, heights])

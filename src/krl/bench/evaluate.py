@@ -40,15 +40,15 @@ TARGET_RATIO = 0.6
 
 def _evaluation(spec, courses, seeds, folder: Path) -> tuple[float, dict[str, int]]:
     """Wall seconds of one ``execute`` of every course run in one process, and its steps per course."""
-    from krl.eval.evaluate import course_tasks, execute
+    from krl.eval.evaluate import course_runs, execute
 
-    tasks = course_tasks(spec, courses, seeds)
+    runs = course_runs(spec, courses, seeds)
     start = time.perf_counter()
-    records = execute(tasks, folder, workers=1)
+    records = execute(runs, folder, workers=1)
     seconds = time.perf_counter() - start
     steps: dict[str, int] = {}
-    for task, record in zip(tasks, records, strict=True):
-        steps[task.course.name] = steps.get(task.course.name, 0) + record["metrics"]["steps"]
+    for run, record in zip(runs, records, strict=True):
+        steps[run.course.name] = steps.get(run.course.name, 0) + record["metrics"]["steps"]
     return seconds, steps
 
 
@@ -92,7 +92,7 @@ def bench_evaluate(
     from krl.eval.controllers import parse_controller
     from krl.eval.courses import courses_named
     from krl.eval.episodes import PushSweep
-    from krl.eval.evaluate import execute, push_tasks
+    from krl.eval.evaluate import execute, push_runs
 
     spec = parse_controller(controller)
     loaded = courses_named(list(courses))
@@ -106,9 +106,9 @@ def bench_evaluate(
             bare = sum(bare_seconds(models[name], steps) for name, steps in walked.items())
             bare_rates.append(total / bare)
         cores = os.cpu_count() or 1
-        tasks = push_tasks(spec, PushSweep(attempts=push_attempts), list(seeds)) if push_attempts else []
+        runs = push_runs(spec, PushSweep(attempts=push_attempts), list(seeds)) if push_attempts else []
         start = time.perf_counter()
-        pushes = execute(tasks, Path(folder) / "push", workers=cores)
+        pushes = execute(runs, Path(folder) / "push", workers=cores)
         sweep_seconds = time.perf_counter() - start
         network = _network_seconds(spec, seeds[0])
     eval_rate, bare_rate = statistics.median(eval_rates), statistics.median(bare_rates)
@@ -127,9 +127,9 @@ def bench_evaluate(
         "network_us_per_step": round(network * 1e6, 1),
         "ratio_ceiling": round(ceiling, 3),
         "cores": cores,
-        "push_runs": len(tasks),
+        "push_runs": len(runs),
         "push_control_steps": sum(record["metrics"]["steps"] for record in pushes),
-        "push_sweep_seconds": round(sweep_seconds, 2) if tasks else None,
+        "push_sweep_seconds": round(sweep_seconds, 2) if runs else None,
         "repeats": repeats,
         "mujoco": mujoco.__version__,
     }

@@ -115,7 +115,7 @@ def run_info(args: argparse.Namespace) -> int:
             "training": policy.metadata.get("training"),
             "software": policy.metadata.get("software"),
             "residual_bound": list(policy.config.residual.residual_bound),
-            "alpha": policy.config.residual.alpha,
+            "residual_alpha": policy.config.residual.residual_alpha,
             "reward": reward_name(reward) or reward.to_json(),
             "observation": [
                 {"name": row["name"], "slice": f"{row['start']}:{row['stop']}", "unit": row["unit"]}

@@ -242,23 +242,23 @@ def run_evaluate(args: argparse.Namespace) -> int:
     from krl.util.progress import progress_bar
 
     evaluation = evaluation_from_args(args)
-    tasks = evaluation.tasks()
+    runs = evaluation.runs()
     done = 0
     with progress_bar(not args.quiet, unit="runs", status=True) as bar:
-        task_id = bar.add_task("evaluate", total=len(tasks), status="")
+        task_id = bar.add_task("evaluate", total=len(runs), status="")
 
-        def on_done(task, record, how: str) -> None:
+        def on_done(run, record, how: str) -> None:
             nonlocal done
             done += 1
             metrics = record["metrics"]
-            status = f"{task.controller.label} {task.key}: {metrics['targets_reached']}/{metrics['targets']}"
+            status = f"{run.controller.label} {run.key}: {metrics['targets_reached']}/{metrics['targets']}"
             bar.update(task_id, advance=1, status=status + (" fell" if metrics["fell"] else ""))
 
         try:
-            summary = run_evaluation(evaluation, tasks, on_done)
+            summary = run_evaluation(evaluation, runs, on_done)
         except KeyboardInterrupt as stop:
             print(
-                f"krl: interrupted after {done} of {len(tasks)} runs; re-run the command to finish",
+                f"krl: interrupted after {done} of {len(runs)} runs; re-run the command to finish",
                 file=sys.stderr,
             )
             return interrupted_status(stop)

@@ -11,10 +11,10 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["DEFAULT_ALPHA", "LowPassFilter"]
+__all__ = ["RESIDUAL_ALPHA", "LowPassFilter"]
 
-DEFAULT_ALPHA: float = 0.1
-"""Smoothing factor α used for every experiment in the thesis (Section 4.2.5)."""
+RESIDUAL_ALPHA: float = 0.1
+"""Smoothing factor α of the residuals' filter in every experiment of the thesis (Section 4.2.5)."""
 
 
 class LowPassFilter:
@@ -24,7 +24,7 @@ class LowPassFilter:
     (or the value given to :meth:`reset`). ``α = 1`` disables filtering.
     """
 
-    def __init__(self, shape: int | tuple[int, ...], alpha: float = DEFAULT_ALPHA) -> None:
+    def __init__(self, shape: int | tuple[int, ...], alpha: float = RESIDUAL_ALPHA) -> None:
         """
         Args:
             shape: shape of the filtered array, e.g. ``(4, 3)`` for foot-position residuals or ``(12,)``.

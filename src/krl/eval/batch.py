@@ -1,6 +1,6 @@
 """Batched evaluation: a worker walks its runs of one controller together, in the one episode loop.
 
-:func:`run_batch` takes runs (:class:`krl.eval.evaluate.Task`: courses from their starts, push-sweep
+:func:`run_batch` takes runs (:class:`krl.eval.evaluate.EvalRun`: courses from their starts, push-sweep
 attempts, friction-sweep runs) of one controller and seed, builds the controller once
 (:meth:`krl.eval.controllers.ControllerSpec.build_batch`) and walks up to :data:`BATCH_SLOTS` runs at once,
 one robot each, in one :class:`krl.task.episode.EpisodeBatch`; a robot whose run ended starts the next run
@@ -57,7 +57,7 @@ class _Run:
     """One run walking in a slot of the batch."""
 
     index: int
-    """The run's place in :func:`run_batch`'s tasks."""
+    """The run's place in :func:`run_batch`'s runs."""
     task: WaypointTask
     scorer: EpisodeScorer
     push: Push | None
@@ -67,41 +67,41 @@ class _Run:
     """The base's yaw [rad] before the push's first control step (None until the push came)."""
 
 
-def _walk(task, flat: list[BuiltModel], models: dict[str, BuiltModel]) -> _Walk:
-    """What run ``task`` walks; course models are compiled once per course."""
-    sweep = task.sweep
+def _walk(run, flat: list[BuiltModel], models: dict[str, BuiltModel]) -> _Walk:
+    """What ``run`` walks; course models are compiled once per course."""
+    sweep = run.sweep
     if sweep is not None:
         if not flat:
             flat.append(build_model("flat"))
-        push = sweep.push(task.magnitude, task.attempt)
+        push = sweep.push(run.magnitude, run.attempt)
         target = np.array([sweep.target])
         heading = sweep.directions != "uniform"
         return _Walk(flat[0], target, (0.0, 0.0, 0.0), sweep.time_limit, sweep.d_min, push, heading)
-    course = task.course
+    course = run.course
     fingerprint = course.fingerprint
     if fingerprint not in models:
         models[fingerprint] = course.build()
-    start = tuple(course.starts[task.start])
+    start = tuple(course.starts[run.start])
     return _Walk(models[fingerprint], np.array(course.waypoints), start, course.time_limit, course.d_min)
 
 
-def run_batch(tasks: Sequence) -> list[dict[str, Any]]:
-    """The records (:meth:`krl.eval.evaluate.Task.record`, as :func:`krl.eval.evaluate.run_task` makes
-    them) of ``tasks``, all of one controller and seed and none filmed, in task order."""
-    spec, seed = tasks[0].controller, tasks[0].seed
-    if any(t.controller != spec or t.seed != seed or t.video for t in tasks):
+def run_batch(runs: Sequence) -> list[dict[str, Any]]:
+    """The records (:meth:`krl.eval.evaluate.EvalRun.record`, as :func:`krl.eval.evaluate.run_one` makes
+    them) of ``runs``, all of one controller and seed and none filmed, in their order."""
+    spec, seed = runs[0].controller, runs[0].seed
+    if any(t.controller != spec or t.seed != seed or t.video for t in runs):
         raise ValueError("a batch holds runs of one controller and seed, none filmed")
     flat: list[BuiltModel] = []
     models: dict[str, BuiltModel] = {}
-    walks = [_walk(task, flat, models) for task in tasks]
-    slots = min(BATCH_SLOTS, len(tasks))
+    walks = [_walk(run, flat, models) for run in runs]
+    slots = min(BATCH_SLOTS, len(runs))
     sims = make_backend([walks[0].built] * slots)
     episodes = EpisodeBatch(sims, EVALUATION_REWARD)
     controller = spec.build_batch(seed, slots)
     attach_scene(controller, sims)
-    waiting = deque(range(len(tasks)))
+    waiting = deque(range(len(runs)))
     running: list[_Run | None] = [None] * slots
-    metrics: list[dict[str, Any] | None] = [None] * len(tasks)
+    metrics: list[dict[str, Any] | None] = [None] * len(runs)
 
     def begin(slot: int) -> None:
         index = waiting.popleft()
@@ -144,7 +144,7 @@ def run_batch(tasks: Sequence) -> list[dict[str, Any]]:
         for slot in rows.tolist():
             if running[slot] is not None:
                 _count(step, slot, running[slot], sims, end)
-    return [_record(*run) for run in zip(tasks, walks, metrics, strict=True)]
+    return [_record(*parts) for parts in zip(runs, walks, metrics, strict=True)]
 
 
 def _count(step: EpisodeStep, slot: int, run: _Run, sims: SimBackend, end) -> None:
@@ -162,8 +162,8 @@ def _count(step: EpisodeStep, slot: int, run: _Run, sims: SimBackend, end) -> No
         end(slot, timed_out=bool(timed_out))
 
 
-def _record(task, walk: _Walk, metrics: dict[str, Any]) -> dict[str, Any]:
+def _record(run, walk: _Walk, metrics: dict[str, Any]) -> dict[str, Any]:
     """A run's record from its walk's metrics (the push sweep's with the push it walked)."""
-    if task.sweep is not None:
-        metrics = push_attempt_metrics(task.sweep, task.attempt, walk.push, metrics)
-    return task.record(metrics)
+    if run.sweep is not None:
+        metrics = push_attempt_metrics(run.sweep, run.attempt, walk.push, metrics)
+    return run.record(metrics)

@@ -4,7 +4,7 @@ A change to the episode engine must keep every record (issue 46): every metric e
 of floating-point operations had to change, the differences stated and shown to move no outcome. This
 compares two results folders (either layout, :mod:`krl.eval.records`) controller by controller and run by
 run: the runs only one folder holds, the runs whose records are equal (but for
-:data:`~krl.eval.records.VOLATILE`, which differ between any two runs of one task), and for the others the
+:data:`~krl.eval.records.VOLATILE`, which differ between any two repeats of one run), and for the others the
 largest absolute difference of each numeric field, the other fields that changed and the runs whose outcome
 (:data:`OUTCOMES`) moved. A record made before ``metrics.ended`` existed is compared with the ending its
 other outcome fields give (:func:`krl.task.episode.ending`), so its age alone moves no outcome.

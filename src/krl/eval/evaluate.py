@@ -2,9 +2,9 @@
 core, resumably.
 
 Each run (a course from one start pose, with one seed where the controller depends on it; one attempt at
-one push magnitude; or a course from one start pose at one ground friction) is a :class:`Task`, keyed
+one push magnitude; or a course from one start pose at one ground friction) is an :class:`EvalRun`, keyed
 ``<course>/start<k>``, ``push/m<N>-a<k>`` or ``friction/<course>-mu<μ>-start<k>`` (``-seed<S>`` appended
-for a seed group). Workers walk tasks in batches of one controller and seed (:func:`batch_jobs`,
+for a seed group). Workers walk runs in batches of one controller and seed (:func:`batch_jobs`,
 :func:`krl.eval.batch.run_batch`: the same records as each run walked alone) and return their records;
 the main process writes them as Parquet
 parts of ``OUT/<controller>/`` (:mod:`krl.eval.records`: atomically, in batches, merged into one part at the
@@ -57,13 +57,15 @@ less CPU per control step, and an interrupted evaluation loses at most a job per
 measured cost are in benchmarks/README.md ("Idle robots, jobs and the networks' bound")."""
 
 HOW_DONE = ("ran", "stored", "shared")
-"""How a task's record became available: its run ran in this call; it was stored already; or it is the
+"""How a run's record became available: it ran in this call; it was stored already; or it is the
 record of the same run under another label (:func:`run_identity`), made in this call or stored."""
 
 
 @dataclass(frozen=True)
-class Task:
-    """One run. Plain data: it travels to a worker process."""
+class EvalRun:
+    """One run of an evaluation (a course from one start, one push attempt, ...; not the waypoint task,
+    :class:`krl.task.waypoints.WaypointTask`, that a walk follows). Plain data: it travels to a worker
+    process."""
 
     key: str
     """The run's key under its controller, ``<group>/<name>`` (``stairs/start0``)."""
@@ -125,16 +127,16 @@ def run_seeds(spec: ControllerSpec, seeds: Sequence[int] | None) -> list[int | N
     return list(dict.fromkeys(spec.seeds if seeds is None else seeds))
 
 
-def course_tasks(
+def course_runs(
     spec: ControllerSpec,
     courses: Sequence[Course],
     seeds: Sequence[int] | None = None,
     video_dir: Path | None = None,
     video_all: bool = False,
-) -> list[Task]:
+) -> list[EvalRun]:
     """Every (course, start[, seed]) run, seeds as :func:`run_seeds`; videos are made of each course's
     first run, or of every run with ``video_all``."""
-    tasks = []
+    runs = []
     seeds_run = run_seeds(spec, seeds) if courses else []
     for course in courses:
         first = True
@@ -144,17 +146,17 @@ def course_tasks(
                 video = None
                 if video_dir is not None and (first or video_all):
                     video = str(video_dir / spec.label / f"{course.name}-{name}.mp4")
-                tasks.append(Task(f"{course.name}/{name}", spec, course, start, seed, video=video))
+                runs.append(EvalRun(f"{course.name}/{name}", spec, course, start, seed, video=video))
                 first = False
-    return tasks
+    return runs
 
 
-def push_tasks(
+def push_runs(
     spec: ControllerSpec, sweep: PushSweep, seeds: Sequence[int] | None = None, video_dir: Path | None = None
-) -> list[Task]:
+) -> list[EvalRun]:
     """Every (magnitude, attempt[, seed]) of the sweep, seeds as :func:`run_seeds`: each seed's policy
     meets the same pushes. A video of attempt 0 at each magnitude (of the first seed) if asked."""
-    tasks = []
+    runs = []
     for index, seed in enumerate(run_seeds(spec, seeds)):
         for magnitude in sweep.magnitudes:
             for attempt in range(sweep.attempts):
@@ -162,8 +164,8 @@ def push_tasks(
                 video = None
                 if video_dir is not None and attempt == 0 and index == 0:
                     video = str(video_dir / spec.label / f"push-{name}.mp4")
-                tasks.append(
-                    Task(
+                runs.append(
+                    EvalRun(
                         f"{PUSH_DIR}/{name}",
                         spec,
                         seed=seed,
@@ -173,20 +175,20 @@ def push_tasks(
                         video=video,
                     )
                 )
-    return tasks
+    return runs
 
 
-def friction_tasks(
+def friction_runs(
     spec: ControllerSpec,
     sweep: FrictionSweep,
     courses: Sequence[Course],
     seeds: Sequence[int] | None = None,
     video_dir: Path | None = None,
-) -> list[Task]:
+) -> list[EvalRun]:
     """Every (course, μ, start[, seed]) run of the friction sweep, seeds as :func:`run_seeds`; ``courses``
     are the sweep's (:meth:`FrictionSweep.load_courses`, loaded once for every controller). A video of
     each course's first run at each μ if asked."""
-    tasks = []
+    runs = []
     seeds_run = run_seeds(spec, seeds)
     for course, friction in itertools.product(courses, sweep.frictions):
         at_mu = FrictionSweep.on(course, friction)
@@ -194,18 +196,18 @@ def friction_tasks(
             name = f"{course.name}-mu{friction:g}-start{start}" + ("" if seed is None else f"-seed{seed}")
             first = start == 0 and seed == seeds_run[0]
             video = str(video_dir / spec.label / f"friction-{name}.mp4") if video_dir and first else None
-            tasks.append(
-                Task(f"{FRICTION_DIR}/{name}", spec, at_mu, start, seed, friction=friction, video=video)
+            runs.append(
+                EvalRun(f"{FRICTION_DIR}/{name}", spec, at_mu, start, seed, friction=friction, video=video)
             )
-    return tasks
+    return runs
 
 
-def stair_tasks(
+def stair_runs(
     spec: ControllerSpec, sweep: StairSweep, seeds: Sequence[int] | None = None, video_dir: Path | None = None
-) -> list[Task]:
+) -> list[EvalRun]:
     """Every (riser, direction, start[, seed]) run of the stair sweep, seeds as :func:`run_seeds`; a video of
     each flight's first run if asked."""
-    tasks = []
+    runs = []
     seeds_run = run_seeds(spec, seeds)
     trained = {seed: trained_risers(spec, seed) for seed in seeds_run}
     for riser, direction, course in sweep.courses():
@@ -214,12 +216,12 @@ def stair_tasks(
             first = start == 0 and seed == seeds_run[0]
             video = str(video_dir / spec.label / f"{name}.mp4") if video_dir and first else None
             stair = {"riser": riser, "direction": direction, "trained_risers": trained[seed]}
-            tasks.append(Task(f"{STAIR_DIR}/{name}", spec, course, start, seed, stair=stair, video=video))
-    return tasks
+            runs.append(EvalRun(f"{STAIR_DIR}/{name}", spec, course, start, seed, stair=stair, video=video))
+    return runs
 
 
-def batch_jobs(tasks: Sequence[Task], workers: int) -> list[list[int]]:
-    """``tasks`` (by index) in the jobs a worker walks as one batch: consecutive runs of one controller and
+def batch_jobs(runs: Sequence[EvalRun], workers: int) -> list[list[int]]:
+    """``runs`` (by index) in the jobs a worker walks as one batch: consecutive runs of one controller and
     seed, at most :data:`BATCH_RUNS` each, in a multiple of ``workers`` jobs of equal size (to one run), so
     that the workers finish together where the runs allow.
     A filmed run goes alone, and so does each run of a controller without a batched form (the expert: its
@@ -227,7 +229,7 @@ def batch_jobs(tasks: Sequence[Task], workers: int) -> list[list[int]]:
     evaluation's loss at one run)."""
     jobs: list[list[int]] = []
     for (spec, _, filmed), group in itertools.groupby(
-        range(len(tasks)), key=lambda i: (tasks[i].controller, tasks[i].seed, tasks[i].video is not None)
+        range(len(runs)), key=lambda i: (runs[i].controller, runs[i].seed, runs[i].video is not None)
     ):
         indices = list(group)
         alone = filmed or not spec.batched
@@ -237,46 +239,46 @@ def batch_jobs(tasks: Sequence[Task], workers: int) -> list[list[int]]:
     return jobs
 
 
-def run_tasks(tasks: Sequence[Task]) -> list[dict[str, Any]]:
-    """Run one job of :func:`batch_jobs` (in a worker): a filmed run alone (:func:`run_task`), else the
+def run_job(runs: Sequence[EvalRun]) -> list[dict[str, Any]]:
+    """Run one job of :func:`batch_jobs` (in a worker): a filmed run alone (:func:`run_one`), else the
     batch (:func:`krl.eval.batch.run_batch`); their records, in order."""
-    if len(tasks) == 1 and tasks[0].video:
-        return [run_task(tasks[0])]
+    if len(runs) == 1 and runs[0].video:
+        return [run_one(runs[0])]
     from krl.eval.batch import run_batch
 
-    return run_batch(tasks)
+    return run_batch(runs)
 
 
-def run_task(task: Task) -> dict[str, Any]:
-    """Run one task (in a worker); returns its record (identity + metrics)."""
+def run_one(run: EvalRun) -> dict[str, Any]:
+    """Walk one run (in a worker); returns its record (identity + metrics)."""
     from krl.sim.robot import A1Sim
 
-    controller = task.controller.build(task.seed)
-    if task.sweep is not None:
-        metrics = score_push_attempt(task.sweep, controller, task.magnitude, task.attempt, video=task.video)
+    controller = run.controller.build(run.seed)
+    if run.sweep is not None:
+        metrics = score_push_attempt(run.sweep, controller, run.magnitude, run.attempt, video=run.video)
     else:
-        course = task.course
+        course = run.course
         assert course is not None
         metrics = score_walk(
             A1Sim(course.build()),
             controller,
             np.array(course.waypoints),
-            course.starts[task.start],
+            course.starts[run.start],
             course.time_limit,
             course.d_min,
-            video=task.video,
+            video=run.video,
         )
-    return task.record(metrics)
+    return run.record(metrics)
 
 
-def check_record(record: dict[str, Any], task: Task, source: Path) -> dict[str, Any]:
-    """``record`` (stored in ``source``) if ``task`` made it; an :class:`EvaluationError` otherwise."""
-    identity = task.identity()
+def check_record(record: dict[str, Any], run: EvalRun, source: Path) -> dict[str, Any]:
+    """``record`` (stored in ``source``) if ``run`` made it; an :class:`EvaluationError` otherwise."""
+    identity = run.identity()
     stored = {key: record.get(key) for key in identity}
-    if task.controller.described_as(stored["controller"], task.seed):
+    if run.controller.described_as(stored["controller"], run.seed):
         stored["controller"] = identity["controller"]
     if stored != identity:
-        where = f"{source}" + (f" (run {task.key})" if source.suffix != ".json" else "")
+        where = f"{source}" + (f" (run {run.key})" if source.suffix != ".json" else "")
         raise EvaluationError(
             f"{where} was made by a different {_differences(stored, identity)} than this run; "
             "use another --out or delete the old results"
@@ -296,7 +298,7 @@ _IDENTITY_NAMES = {
     "start": "start",
     "seed": "seed",
 }
-"""What each key of :meth:`Task.identity` is, in messages."""
+"""What each key of :meth:`EvalRun.identity` is, in messages."""
 
 
 def _differences(a: dict[str, Any], b: dict[str, Any]) -> str:
@@ -305,48 +307,50 @@ def _differences(a: dict[str, Any], b: dict[str, Any]) -> str:
     return " and ".join(dict.fromkeys(_IDENTITY_NAMES.get(key, key) for key in keys))
 
 
-def run_identity(task: Task) -> str:
-    """What a run computes: its identity (:meth:`Task.identity`) but for the label its controller is listed
-    under, with its run key and video. Two tasks of one identity compute the same record (every run is
+def run_identity(run: EvalRun) -> str:
+    """What a run computes: its identity (:meth:`EvalRun.identity`) but for the label its controller is listed
+    under, with its run key and video. Two runs of one identity compute the same record (every run is
     seeded by its key), so a file listed under two labels, a seed group's file that another group or a
     variant also holds, say, runs once."""
-    identity = task.identity()
+    identity = run.identity()
     identity["controller"] = {k: v for k, v in identity["controller"].items() if k != "label"}
-    return json.dumps([identity, task.key, task.video], sort_keys=True)
+    return json.dumps([identity, run.key, run.video], sort_keys=True)
 
 
-def _stored_records(out: Path, planned: dict[tuple[str, str], Task]) -> dict[tuple[str, str], dict[str, Any]]:
+def _stored_records(
+    out: Path, planned: dict[tuple[str, str], EvalRun]
+) -> dict[tuple[str, str], dict[str, Any]]:
     """The stored record of each planned ``(label, run key)`` that has one (not one whose video is
-    missing), each checked against its task; then every stored run of each label, planned or not, checked
+    missing), each checked against its run; then every stored run of each label, planned or not, checked
     to be of this call's controller and courses (:func:`krl.eval.label_identity.check_label`)."""
     records = {}
     for label in dict.fromkeys(label for label, _ in planned):
-        runs = read_runs(out / label, label) if (out / label).is_dir() else {}
-        for key, found in runs.items():
-            task = planned.get((label, key))
-            if task is not None and not (task.video and not Path(task.video).exists()):
-                records[label, key] = check_record(found.record, task, found.source)
-        tasks = [task for (of, _), task in planned.items() if of == label]
-        courses = {t.course.name: t.course.fingerprint for t in tasks if t.course and t.friction is None}
-        check_label(out / label, tasks[0].controller, courses, runs)
+        stored_runs = read_runs(out / label, label) if (out / label).is_dir() else {}
+        for key, found in stored_runs.items():
+            run = planned.get((label, key))
+            if run is not None and not (run.video and not Path(run.video).exists()):
+                records[label, key] = check_record(found.record, run, found.source)
+        runs = [run for (of, _), run in planned.items() if of == label]
+        courses = {t.course.name: t.course.fingerprint for t in runs if t.course and t.friction is None}
+        check_label(out / label, runs[0].controller, courses, stored_runs)
     return records
 
 
 def execute(
-    tasks: Sequence[Task],
+    runs: Sequence[EvalRun],
     out: Path,
     workers: int = 1,
-    on_done: Callable[[Task, dict[str, Any], str], None] | None = None,
+    on_done: Callable[[EvalRun, dict[str, Any], str], None] | None = None,
     on_start: Callable[[], None] | None = None,
 ) -> list[dict[str, Any]]:
-    """Run the tasks whose results are not stored yet; return every task's record, in task order.
+    """Walk the runs whose results are not stored yet; return every run's record, in the order of ``runs``.
 
     Everything is checked before anything is written: the worker count; that no two different runs
     would share a record (same controller label and run key, different identity: an
-    :class:`EvaluationError`; equal tasks run once); and that every stored result was made by its task.
-    Tasks that compute the same record under different labels (:func:`run_identity`) run once: each gets
+    :class:`EvaluationError`; equal runs are walked once); and that every stored result was made by its run.
+    Runs that compute the same record under different labels (:func:`run_identity`) are walked once: each gets
     the record under its own label, copied from a stored one where there is one. Then ``on_start()`` is
-    called (the CLI records its command there), and ``on_done(task, record, how)`` for each task as its
+    called (the CLI records its command there), and ``on_done(run, record, how)`` for each run as its
     record becomes available, ``how`` one of :data:`HOW_DONE`. Records are written in batches
     (:class:`krl.eval.records.RecordWriter`) and each controller's parts merged into one at the end. The
     runs go through :func:`krl.util.parallel.run_jobs` in batches (:func:`batch_jobs`, walked by
@@ -356,21 +360,21 @@ def execute(
     """
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
-    planned: dict[tuple[str, str], Task] = {}
-    for task in tasks:
-        other = planned.setdefault((task.controller.label, task.key), task)
-        if other.identity() != task.identity():
+    planned: dict[tuple[str, str], EvalRun] = {}
+    for run in runs:
+        other = planned.setdefault((run.controller.label, run.key), run)
+        if other.identity() != run.identity():
             raise EvaluationError(
-                f"run {task.controller.label} {task.key} would be two different runs of this call (they "
-                f"differ in {_differences(other.identity(), task.identity())}); give them different names"
+                f"run {run.controller.label} {run.key} would be two different runs of this call (they "
+                f"differ in {_differences(other.identity(), run.identity())}); give them different names"
             )
-    keys = {where: run_identity(task) for where, task in planned.items()}
+    keys = {where: run_identity(run) for where, run in planned.items()}
     records = _stored_records(out, planned)
     stored = {keys[where]: record for where, record in records.items()}  # by run identity
-    served: dict[str, list[Task]] = {}  # the tasks without a record, by run identity
-    for where, task in planned.items():
+    served: dict[str, list[EvalRun]] = {}  # the runs without a record, by run identity
+    for where, run in planned.items():
         if where not in records:
-            served.setdefault(keys[where], []).append(task)
+            served.setdefault(keys[where], []).append(run)
     to_run = [key for key in served if key not in stored]
     if on_start is not None:
         on_start()
@@ -382,12 +386,12 @@ def execute(
             )
     writer = RecordWriter(out)
 
-    def store(task: Task, record: dict[str, Any], how: str) -> None:
-        mine = {**record, **task.identity()}  # under the task's own label
-        writer.add(task.controller.label, mine)
-        records[task.controller.label, task.key] = mine
+    def store(run: EvalRun, record: dict[str, Any], how: str) -> None:
+        mine = {**record, **run.identity()}  # under the run's own label
+        writer.add(run.controller.label, mine)
+        records[run.controller.label, run.key] = mine
         if on_done is not None:
-            on_done(task, mine, how)
+            on_done(run, mine, how)
 
     if on_done is not None:
         for where, record in records.items():
@@ -399,18 +403,18 @@ def execute(
         for index, record in zip(jobs[job], job_records, strict=True):
             first, *others = served[to_run[index]]
             store(first, record, "ran")
-            for task in others:
-                store(task, record, "shared")
+            for run in others:
+                store(run, record, "shared")
 
     try:
         for key, same in served.items():
-            for task in same if key in stored else ():
-                store(task, stored[key], "shared")
-        run_jobs(run_tasks, [[served[to_run[i]][0] for i in job] for job in jobs], workers, on_result=finish)
+            for run in same if key in stored else ():
+                store(run, stored[key], "shared")
+        run_jobs(run_job, [[served[to_run[i]][0] for i in job] for job in jobs], workers, on_result=finish)
     finally:
         writer.flush()
     writer.consolidate()
-    return [records[task.controller.label, task.key] for task in tasks]
+    return [records[run.controller.label, run.key] for run in runs]
 
 
 @dataclass(frozen=True)
@@ -434,47 +438,47 @@ class Evaluation:
     workers: int = 1
     command: str | None = None
 
-    def tasks(self) -> list[Task]:
+    def runs(self) -> list[EvalRun]:
         """Every run of the evaluation, controller by controller: courses, then pushes, then frictions."""
         friction_courses = [] if self.friction is None else self.friction.load_courses()
-        tasks: list[Task] = []
+        runs: list[EvalRun] = []
         for spec in self.controllers:
-            tasks += course_tasks(spec, self.courses, self.seeds, self.video, self.video_all)
+            runs += course_runs(spec, self.courses, self.seeds, self.video, self.video_all)
             if self.push is not None:
-                tasks += push_tasks(spec, self.push, self.seeds, self.video)
+                runs += push_runs(spec, self.push, self.seeds, self.video)
             if self.friction is not None:
-                tasks += friction_tasks(spec, self.friction, friction_courses, self.seeds, self.video)
+                runs += friction_runs(spec, self.friction, friction_courses, self.seeds, self.video)
             if self.stairs is not None:
-                tasks += stair_tasks(spec, self.stairs, self.seeds, self.video)
-        return tasks
+                runs += stair_runs(spec, self.stairs, self.seeds, self.video)
+        return runs
 
 
 def run_evaluation(
     evaluation: Evaluation,
-    tasks: Sequence[Task],
-    on_done: Callable[[Task, dict[str, Any], str], None] | None = None,
+    runs: Sequence[EvalRun],
+    on_done: Callable[[EvalRun, dict[str, Any], str], None] | None = None,
 ) -> dict[str, Any]:
-    """Run ``tasks`` (:meth:`Evaluation.tasks`) through :func:`execute`, remembering the command once every
+    """Walk ``runs`` (:meth:`Evaluation.runs`) through :func:`execute`, remembering the command once every
     option and stored result has been checked; returns the summary
     (:func:`krl.eval.summaries.evaluation_summary`). ``on_done`` as :func:`execute`'s."""
     from krl.eval.summaries import controller_entry, evaluation_summary
 
     counts = dict.fromkeys(HOW_DONE, 0)
 
-    def done(task: Task, record: dict[str, Any], how: str) -> None:
+    def done(run: EvalRun, record: dict[str, Any], how: str) -> None:
         counts[how] += 1
         if on_done is not None:
-            on_done(task, record, how)
+            on_done(run, record, how)
 
     def remember_command() -> None:
         for spec in evaluation.controllers if evaluation.command else ():
             remember(evaluation.out / spec.label / "commands.txt", evaluation.command)
 
-    records = execute(tasks, evaluation.out, evaluation.workers, done, remember_command)
+    records = execute(runs, evaluation.out, evaluation.workers, done, remember_command)
     courses = [course.name for course in evaluation.courses]
     entries = {
         spec.label: controller_entry(
-            [r for t, r in zip(tasks, records, strict=True) if t.controller == spec],
+            [r for t, r in zip(runs, records, strict=True) if t.controller == spec],
             courses,
             spec.seeded,
             evaluation.push is not None,
@@ -485,7 +489,7 @@ def run_evaluation(
     }
     sweep = evaluation.push
     push = None if sweep is None else {**sweep.to_dict(), "directions": sweep.directions}
-    return evaluation_summary(entries, len(tasks), counts, str(evaluation.out), push)
+    return evaluation_summary(entries, len(runs), counts, str(evaluation.out), push)
 
 
 def remember(path: Path, command: str) -> None:

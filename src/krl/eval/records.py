@@ -232,7 +232,7 @@ def part_files(folder: Path) -> list[Path]:
 
 
 WALL_TIME = "wall_seconds"
-"""The metric that differs between two runs of one task (wall-clock time [s]): every other is fixed by the
+"""The metric that differs between two repeats of one run (wall-clock time [s]): every other is fixed by the
 run's key (on one machine's arithmetic)."""
 
 MACHINE = "machine"
@@ -240,12 +240,12 @@ MACHINE = "machine"
 
 
 VOLATILE: tuple[str, ...] = (f"metrics.{WALL_TIME}", MACHINE)
-"""The dotted fields of a record that differ between two runs of one task (its wall time, its machine),
+"""The dotted fields of a record that differ between two repeats of one run (its wall time, its machine),
 each with every field under it (``machine.cpu``)."""
 
 
 def result_of(record: dict[str, Any], volatile: Sequence[str] = VOLATILE) -> dict[str, Any]:
-    """``record`` without its ``volatile`` fields: what two runs of one task must agree on."""
+    """``record`` without its ``volatile`` fields: what two repeats of one run must agree on."""
 
     def kept(value: Any, path: str) -> Any:
         if not isinstance(value, dict):

@@ -3,7 +3,7 @@ fall detection.
 
 :class:`A1Sim` is a simulator backend (:class:`krl.sim.backend.SimBackend`) with one robot, for code that
 drives a single robot (the MPC expert, the kernel, the evaluation, the viewer): one call of
-:meth:`A1Sim.step` is one 200 Hz control step of the batch, and a single robot and a batch of N step and
+:meth:`A1Sim.step` is one 200 Hz control step of its backend, and a single robot and N robots step and
 read out alike, bit for bit.
 This module also names what a user of one robot needs: :class:`krl.sim.state.RobotState`, the fall rule
 (:data:`krl.sim.state.FALL_TILT`), the motor envelope and :class:`SimulationUnstableError`.
@@ -49,30 +49,31 @@ class A1Sim:
     """
 
     def __init__(self, built: BuiltModel, motor_envelope: bool = True) -> None:
-        self.batch: SimBackend = make_backend([built], motor_envelope=motor_envelope)
-        """The batch of one this simulator is (what :class:`krl.task.episode.EpisodeBatch` steps)."""
+        self.backend: SimBackend = make_backend([built], motor_envelope=motor_envelope)
+        """The simulator backend of one robot this simulator wraps (what
+        :class:`krl.task.episode.EpisodeBatch` steps)."""
         self._read: tuple[StateBatch, RobotState] | None = None
 
     @property
     def model(self) -> mujoco.MjModel:
         """The robot's model (the simulator's private copy), for reading."""
-        return self.batch.model(0)
+        return self.backend.model(0)
 
     @property
     def data(self) -> mujoco.MjData:
         """The robot's ``MjData``, for reading (rendering, analysis)."""
-        return self.batch.data(0)
+        return self.backend.data(0)
 
     @property
     def terrain(self) -> Terrain:
         """The terrain the robot stands on."""
-        return self.batch.terrain(0)
+        return self.backend.terrain(0)
 
     @property
     def state(self) -> RobotState:
         """The state after the last step or reset (after a :class:`SimulationUnstableError`: the last one
         before it, marked fallen)."""
-        states = self.batch.states
+        states = self.backend.states
         if self._read is None or self._read[0] is not states:
             self._read = states, states.row(0)
         return self._read[1]
@@ -85,7 +86,7 @@ class A1Sim:
     @property
     def step_count(self) -> int:
         """Control steps since the last reset."""
-        return int(self.batch.step_counts[0])
+        return int(self.backend.step_counts[0])
 
     def reset(
         self,
@@ -96,13 +97,13 @@ class A1Sim:
         """Put the robot at rest at ``xy`` (default: the terrain's spawn point) facing ``yaw`` [rad]
         (:meth:`krl.sim.backend.SimBackend.reset`: ``joint_angles`` default to the standing pose, shape
         (12,))."""
-        self.batch.reset(0, xy=xy, yaw=yaw, joint_angles=joint_angles)
+        self.backend.reset(0, xy=xy, yaw=yaw, joint_angles=joint_angles)
         return self.state
 
     def set_state(self, qpos: np.ndarray, qvel: np.ndarray) -> RobotState:
         """Put the robot in the state ``qpos`` (shape (19,)) and ``qvel`` (shape (18,)), keeping the time,
         gains and pending push (:meth:`krl.sim.backend.SimBackend.set_state`)."""
-        self.batch.set_state(0, qpos, qvel)
+        self.backend.set_state(0, qpos, qvel)
         return self.state
 
     def step(
@@ -128,14 +129,14 @@ class A1Sim:
             None if value is None else joint_vector(value, name)[None]
             for value, name in ((q_target, "q_target"), (kp, "kp"), (kd, "kd"), (tau_ff, "tau_ff"))
         ]
-        self.batch.step(*rows, raise_on_divergence=True)
+        self.backend.step(*rows, raise_on_divergence=True)
         return self.state
 
     def push(self, push: Push) -> None:
         """Schedule ``push`` (replacing any pending one); it acts from its ``start_time`` on."""
-        self.batch.push(0, push)
+        self.backend.push(0, push)
 
     @property
     def pending_push(self) -> Push | None:
         """The scheduled or active push, if any."""
-        return self.batch.pending_push(0)
+        return self.backend.pending_push(0)

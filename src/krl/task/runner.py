@@ -127,10 +127,10 @@ class Runner:
         reward: RewardConfig = EVALUATION_REWARD,
     ) -> None:
         self.sim = sim
-        self.episodes = EpisodeBatch(sim.batch, reward)
+        self.episodes = EpisodeBatch(sim.backend, reward)
         """The episode loop over the simulator's batch of one."""
         self.controller = controller
-        attach_scene(controller, sim.batch)
+        attach_scene(controller, sim.backend)
         self.command_params = command_params or CommandParams()
         self.on_step = on_step
         self.on_target = on_target
@@ -184,7 +184,7 @@ class Runner:
                 *(None if part is None else np.asarray(part)[None] for part in joint_command)
             )
             if step.unstable[0]:
-                raise sim.batch.divergence(0)
+                raise sim.backend.divergence(0)
             after = sim.state
             if k >= steady_from:
                 result.commanded.append(command.copy())
