@@ -79,7 +79,7 @@ def test_push_sweep_attempts_share_their_draws_across_magnitudes():
     "kwargs, message",
     [
         ({"attempts": 0}, "attempts"),
-        ({"magnitudes": (-5.0,)}, "magnitudes"),
+        ({"magnitudes": (-5.0,)}, "push magnitude must be"),
         ({"magnitudes": (300.0, 400.0, 300.0)}, "magnitudes must be distinct"),
         ({"window": (1.0, 50.0)}, "window"),
     ],
