@@ -23,7 +23,6 @@ of the episode's last step. The evaluation courses are never used here: they are
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import replace
 from typing import Any, ClassVar
 
@@ -44,7 +43,8 @@ from krl.sim.model import build_model
 from krl.sim.pushes import PushDistribution, PushSchedule
 from krl.sim.state import StateBatch
 from krl.task.episode import EpisodeBatch
-from krl.task.waypoints import WaypointTask, random_targets
+from krl.task.record import EpisodeRecords
+from krl.task.waypoints import TaskStatus, WaypointTask, random_targets
 from krl.util.timing import CONTROL_DT
 
 EPISODE_INFO_KEYS: tuple[str, ...] = (
@@ -63,10 +63,6 @@ terrain curriculum ``terrain_level``, the level the episode walked on."""
 SCAN_NOISE_STREAM: int = 0x5CA9
 """Second word of the seed of the height scan's noise generator (``[seed of environment 0, this]``), so its
 draws never share a stream with the environments' own."""
-
-
-PUSH_VERDICT_TIME: float = 2.0
-"""A push is survived when the robot has not fallen this long after its start [s] (the push lasts 0.3 s)."""
 
 
 class ResidualEnvBatch:
@@ -107,14 +103,9 @@ class ResidualEnvBatch:
         self.episodes: EpisodeBatch | None = None
         """The episode loop over :attr:`sims` (made with the first terrain)."""
         self.push_schedules: list[PushSchedule | None] = [None] * num_envs
-        self.push_watch = np.full(num_envs, np.nan)
-        """Start time [s] of each environment's latest push whose outcome is not known yet, else NaN."""
         self.episodes_on_terrain = np.zeros(num_envs, dtype=np.int64)
-        self.episode_reward = np.zeros(num_envs)
-        self.episode_steps = np.zeros(num_envs, dtype=np.int64)
-        self.episode_terms: dict[str, np.ndarray] = {}
-        """Each reward term summed over the current episodes, one array of shape (N,) per term."""
-        self.episode_start = [time.perf_counter()] * num_envs
+        self.records = EpisodeRecords(num_envs)
+        """The episodes' records (:mod:`krl.task.record`), the source of ``info["episode"]``."""
         self.terrain_names = [""] * num_envs
         self.needs_terrain = np.ones(num_envs, dtype=bool)
         self.states: StateBatch | None = None
@@ -192,12 +183,7 @@ class ResidualEnvBatch:
             task.reset(state.base_pos[:2])
             tasks.append(task)
             self.push_schedules[index] = PushSchedule(self.pushes, rng) if env.pushes else None
-            self.push_watch[index] = np.nan
-            self.episode_reward[index] = 0.0
-            self.episode_steps[index] = 0
-            for sums in self.episode_terms.values():
-                sums[index] = 0.0
-            self.episode_start[index] = time.perf_counter()
+        self.records.begin(rows)
         self.episodes.start(rows, tasks, [self.push_schedules[index] for index in rows])
         self.controller.reset(rows)
         self.states = self.sims.states
@@ -247,35 +233,27 @@ class ResidualEnvBatch:
         q_target = self.controller.joint_targets(actions)
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         step = self.episodes.step(q_target)
-        for index, push in enumerate(step.pushes):
-            if push is not None:
-                if not np.isnan(self.push_watch[index]):  # a push before the last one's verdict
-                    infos[index]["push_survived"] = True
-                self.push_watch[index] = push.start_time
         self.states = states = step.states
         terminated, truncated, terms = step.fell, step.ended & ~step.fell, step.terms
         rewards = np.sum(list(terms.values()), axis=0)
         self.last_terms = terms
         self.controller.prepare(states, self.episodes.commands)
         observations = self._observe(np.arange(self.num_envs))
-        self.episode_reward += rewards
-        self.episode_steps += 1
-        for name, values in terms.items():
-            sums = self.episode_terms.get(name)
-            if sums is None:
-                sums = self.episode_terms[name] = np.zeros(self.num_envs)
-            sums += values
-        self._judge_pushes(states.time, terminated, infos)
+        self.records.add(step, np.arange(self.num_envs), self.sims.step_counts)
+        for index, survived in self.records.judge_pushes(step).items():
+            infos[index]["push_survived"] = survived
         for index in np.flatnonzero(terminated | truncated):
+            task = self.episodes.tasks[index]
+            record = self.records.finish(index, task.reached_count, task.status is TaskStatus.TIMED_OUT)
             infos[index]["episode"] = {
-                "r": float(self.episode_reward[index]),
-                "l": int(self.episode_steps[index]),
-                "t": round(time.perf_counter() - self.episode_start[index], 6),
-                "targets_reached": int(self.episodes.tasks[index].reached_count),
-                "fell": bool(terminated[index]),
-                "unstable": bool(step.unstable[index]),
+                "r": record.reward,
+                "l": record.steps,
+                "t": round(record.wall_seconds, 6),
+                "targets_reached": record.targets_reached,
+                "fell": record.fell,
+                "unstable": record.unstable,
                 "terrain": self.terrain_names[index],
-                "terms": {name: float(sums[index]) for name, sums in self.episode_terms.items()},
+                "terms": record.terms,
             }
             if self.curriculum is not None:
                 self._promote(index, infos[index]["episode"])
@@ -290,16 +268,6 @@ class ResidualEnvBatch:
         if new != level:
             self.levels[index] = new
             self.needs_terrain[index] = True
-
-    def _judge_pushes(self, times: np.ndarray, fallen: np.ndarray, infos: list[dict[str, Any]]) -> None:
-        """``info["push_survived"]``: False where the robot fell within :data:`PUSH_VERDICT_TIME` of its
-        latest push's start, True once that time passed without a fall."""
-        watched = ~np.isnan(self.push_watch)
-        failed = watched & fallen
-        survived = watched & ~fallen & (times - self.push_watch >= PUSH_VERDICT_TIME)
-        for index in np.flatnonzero(failed | survived):
-            infos[index]["push_survived"] = bool(survived[index])
-            self.push_watch[index] = np.nan
 
 
 def _build_terrain(
