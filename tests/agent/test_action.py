@@ -11,11 +11,11 @@ from agent_fakes import make_policy
 from krl.agent.action import action_parts
 from krl.agent.config import CORE_FEATURES, AgentConfig, AgentConfigError, ResidualConfig
 from krl.agent.controller import AgentController
-from krl.agent.env import A1ResidualEnv
 from krl.agent.observation import observe
 from krl.agent.residual import ResidualController
 from krl.cli import main
 from krl.control.expert import RIDE_HEIGHT_RANGE, STEP_HEIGHT_RANGE
+from krl.envs.residual import A1ResidualEnv
 from krl.kernel.registry import load_model
 from krl.sim.backend import make_backend
 from krl.sim.model import build_model

@@ -8,8 +8,9 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from krl.agent.config import AgentConfig, AgentConfigError, EnvConfig, ObservationConfig
-from krl.agent.env import A1ResidualEnv, ResidualVecEnv
+from krl.agent.env import ResidualVecEnv
 from krl.agent.observation import FEATURES, layout, observation_size
+from krl.envs.residual import A1ResidualEnv
 
 
 def test_registered_env_passes_check_env():

@@ -9,6 +9,7 @@ import krl  # noqa: F401  (registers the environments)
 from krl.envs.a1 import OBSERVATION_SIZE, OBSERVATION_SLICES
 from krl.robots.a1.constants import STANDING_JOINT_ANGLES
 from krl.sim.terrains import TERRAIN_NAMES
+from krl.util.timing import CONTROL_DT
 
 
 @pytest.mark.parametrize("terrain", TERRAIN_NAMES)
@@ -50,6 +51,9 @@ def test_fall_terminates_and_bad_action_rejected():
         if terminated:
             break
     assert terminated and info["fallen"] and reward == 0.0
+    # stepped on after the fall, the same simulation goes on (the episode loop starts a new episode)
+    _, reward, terminated, _, after = env.step(limp)
+    assert after["time"] == pytest.approx(info["time"] + CONTROL_DT) and terminated and reward == 0.0
     with pytest.raises(ValueError, match=r"shape \(12,\)"):
         env.step(np.zeros(3))
 

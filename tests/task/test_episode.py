@@ -8,8 +8,8 @@ from agent_fakes import make_policy
 
 from krl.agent.config import AgentConfig
 from krl.agent.controller import AgentController
-from krl.agent.env import A1ResidualEnv
 from krl.control.commands import CommandParams
+from krl.envs.residual import A1ResidualEnv
 from krl.robots.a1.constants import STANDING_JOINT_ANGLES
 from krl.sim.backend import make_backend
 from krl.sim.batch import SimBatch

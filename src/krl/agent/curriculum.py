@@ -4,7 +4,7 @@ With ``config.env.push_curriculum`` the training pushes' magnitude is drawn ~ U(
 low, the *ceiling*) [N]. The ceiling starts at ``push_magnitude``'s high; after each rollout
 :func:`next_ceiling` moves it by ``push_curriculum_step`` from the fraction of the rollout's pushes that
 were survived (``info["push_survived"]`` of :class:`krl.agent.env.ResidualEnvBatch`: no fall within
-:data:`krl.agent.env.PUSH_VERDICT_TIME` of the push's start), kept within [``push_magnitude``'s high,
+:data:`krl.task.record.PUSH_VERDICT_TIME` of the push's start), kept within [``push_magnitude``'s high,
 ``push_curriculum_max``]. Directions and points are drawn as every push's (:mod:`krl.sim.pushes`).
 
 The ceiling in force is saved in every checkpoint's ``state.json`` (``push_ceiling``), read back by a

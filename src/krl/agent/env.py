@@ -7,8 +7,9 @@ the loop evaluation walks its runs through), the physics one robot after the oth
 over N.
 Two faces use it:
 
-* :class:`A1ResidualEnv`, the Gymnasium environment ``krl/A1Residual-v0`` (one robot);
-* :class:`ResidualVecEnv`, a Stable-Baselines3 ``VecEnv`` of N robots with automatic resets.
+* :class:`ResidualVecEnv`, a Stable-Baselines3 ``VecEnv`` of N robots with automatic resets (training);
+* :class:`krl.envs.residual.A1ResidualEnv`, the Gymnasium environment ``krl/A1Residual-v0`` (one robot),
+  which lives with the other Gymnasium environment in :mod:`krl.envs` (docs/envs.md).
 
 An episode (Section 4.2.9): the robot starts at the terrain's spawn point facing a random direction and
 walks to consecutive random waypoints (2.5-3.5 m apart, inside the field) through the command generator
@@ -23,15 +24,14 @@ of the episode's last step. The evaluation courses are never used here: they are
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import replace
-from typing import Any, ClassVar
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
 from krl.agent.config import AgentConfig
-from krl.agent.observation import observation_size, observation_table, observe
+from krl.agent.observation import observation_size, observe
 from krl.agent.residual import ResidualController
 from krl.agent.sensing import Sensing
 from krl.agent.terrain_curriculum import difficulty, first_level, next_level, tile_terrain
@@ -44,8 +44,8 @@ from krl.sim.model import build_model
 from krl.sim.pushes import PushDistribution, PushSchedule
 from krl.sim.state import StateBatch
 from krl.task.episode import EpisodeBatch
-from krl.task.waypoints import WaypointTask, random_targets
-from krl.util.timing import CONTROL_DT
+from krl.task.record import EpisodeRecords
+from krl.task.waypoints import TaskStatus, WaypointTask, random_targets
 
 EPISODE_INFO_KEYS: tuple[str, ...] = (
     "r",
@@ -63,10 +63,6 @@ terrain curriculum ``terrain_level``, the level the episode walked on."""
 SCAN_NOISE_STREAM: int = 0x5CA9
 """Second word of the seed of the height scan's noise generator (``[seed of environment 0, this]``), so its
 draws never share a stream with the environments' own."""
-
-
-PUSH_VERDICT_TIME: float = 2.0
-"""A push is survived when the robot has not fallen this long after its start [s] (the push lasts 0.3 s)."""
 
 
 class ResidualEnvBatch:
@@ -107,14 +103,9 @@ class ResidualEnvBatch:
         self.episodes: EpisodeBatch | None = None
         """The episode loop over :attr:`sims` (made with the first terrain)."""
         self.push_schedules: list[PushSchedule | None] = [None] * num_envs
-        self.push_watch = np.full(num_envs, np.nan)
-        """Start time [s] of each environment's latest push whose outcome is not known yet, else NaN."""
         self.episodes_on_terrain = np.zeros(num_envs, dtype=np.int64)
-        self.episode_reward = np.zeros(num_envs)
-        self.episode_steps = np.zeros(num_envs, dtype=np.int64)
-        self.episode_terms: dict[str, np.ndarray] = {}
-        """Each reward term summed over the current episodes, one array of shape (N,) per term."""
-        self.episode_start = [time.perf_counter()] * num_envs
+        self.records = EpisodeRecords(num_envs)
+        """The episodes' records (:mod:`krl.task.record`), the source of ``info["episode"]``."""
         self.terrain_names = [""] * num_envs
         self.needs_terrain = np.ones(num_envs, dtype=bool)
         self.states: StateBatch | None = None
@@ -192,12 +183,7 @@ class ResidualEnvBatch:
             task.reset(state.base_pos[:2])
             tasks.append(task)
             self.push_schedules[index] = PushSchedule(self.pushes, rng) if env.pushes else None
-            self.push_watch[index] = np.nan
-            self.episode_reward[index] = 0.0
-            self.episode_steps[index] = 0
-            for sums in self.episode_terms.values():
-                sums[index] = 0.0
-            self.episode_start[index] = time.perf_counter()
+        self.records.begin(rows)
         self.episodes.start(rows, tasks, [self.push_schedules[index] for index in rows])
         self.controller.reset(rows)
         self.states = self.sims.states
@@ -247,35 +233,27 @@ class ResidualEnvBatch:
         q_target = self.controller.joint_targets(actions)
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         step = self.episodes.step(q_target)
-        for index, push in enumerate(step.pushes):
-            if push is not None:
-                if not np.isnan(self.push_watch[index]):  # a push before the last one's verdict
-                    infos[index]["push_survived"] = True
-                self.push_watch[index] = push.start_time
         self.states = states = step.states
         terminated, truncated, terms = step.fell, step.ended & ~step.fell, step.terms
         rewards = np.sum(list(terms.values()), axis=0)
         self.last_terms = terms
         self.controller.prepare(states, self.episodes.commands)
         observations = self._observe(np.arange(self.num_envs))
-        self.episode_reward += rewards
-        self.episode_steps += 1
-        for name, values in terms.items():
-            sums = self.episode_terms.get(name)
-            if sums is None:
-                sums = self.episode_terms[name] = np.zeros(self.num_envs)
-            sums += values
-        self._judge_pushes(states.time, terminated, infos)
+        self.records.add(step, np.arange(self.num_envs), self.sims.step_counts)
+        for index, survived in self.records.judge_pushes(step).items():
+            infos[index]["push_survived"] = survived
         for index in np.flatnonzero(terminated | truncated):
+            task = self.episodes.tasks[index]
+            record = self.records.finish(index, task.reached_count, task.status is TaskStatus.TIMED_OUT)
             infos[index]["episode"] = {
-                "r": float(self.episode_reward[index]),
-                "l": int(self.episode_steps[index]),
-                "t": round(time.perf_counter() - self.episode_start[index], 6),
-                "targets_reached": int(self.episodes.tasks[index].reached_count),
-                "fell": bool(terminated[index]),
-                "unstable": bool(step.unstable[index]),
+                "r": record.reward,
+                "l": record.steps,
+                "t": round(record.wall_seconds, 6),
+                "targets_reached": record.targets_reached,
+                "fell": record.fell,
+                "unstable": record.unstable,
                 "terrain": self.terrain_names[index],
-                "terms": {name: float(sums[index]) for name, sums in self.episode_terms.items()},
+                "terms": record.terms,
             }
             if self.curriculum is not None:
                 self._promote(index, infos[index]["episode"])
@@ -291,16 +269,6 @@ class ResidualEnvBatch:
             self.levels[index] = new
             self.needs_terrain[index] = True
 
-    def _judge_pushes(self, times: np.ndarray, fallen: np.ndarray, infos: list[dict[str, Any]]) -> None:
-        """``info["push_survived"]``: False where the robot fell within :data:`PUSH_VERDICT_TIME` of its
-        latest push's start, True once that time passed without a fall."""
-        watched = ~np.isnan(self.push_watch)
-        failed = watched & fallen
-        survived = watched & ~fallen & (times - self.push_watch >= PUSH_VERDICT_TIME)
-        for index in np.flatnonzero(failed | survived):
-            infos[index]["push_survived"] = bool(survived[index])
-            self.push_watch[index] = np.nan
-
 
 def _build_terrain(
     name: str, params: dict, seed: int, rng: np.random.Generator, friction: tuple[float, float]
@@ -313,123 +281,6 @@ def _build_terrain(
     built = build_model(name, params, seed)
     mu = built.terrain.params.get("friction")
     return built, f"{name}-{seed}" + ("" if mu is None else f"-mu{mu:.3f}")
-
-
-class A1ResidualEnv(gym.Env):
-    """``krl/A1Residual-v0``: one A1 on rough terrain; the kernel walks, the agent adds foot residuals.
-
-    The kernel (shipped kernel-base by default) maps the velocity command of Algorithm 2 and the gait's
-    phases to the four feet's targets; the action corrects them (thesis Fig. 4.1, Sections 4.2.8-4.2.9).
-    One step is one 200 Hz control step: five 1 ms physics steps of the Table 4.2 PD inside MuJoCo.
-
-    ## Action space
-    ``Box(-1, 1, (12,), float32)`` by default: per foot (FR, FL, RR, RL) an (x, y, z) residual in the base
-    frame, scaled by ``config.residual.residual_bound`` [m], low-pass filtered (Eq. 4.4, α =
-    ``config.residual.residual_alpha``), added to the kernel's targets, then IK and PD
-    (:class:`krl.agent.residual.ResidualController`). The ``drive_*`` switches of ``config.residual``
-    append the kernel's command (3), kernel-ext's step and ride heights (2) and the gait clock's rate (1),
-    each mapped onto its range and filtered (:mod:`krl.agent.action`); ``residuals=False`` drops the 12
-    residuals. Any other shape raises ValueError.
-
-    ## Observation space
-    ``Box(-inf, inf, (D,), float32)``: the features of ``config.observation.features``, concatenated in that
-    order (the default, the thesis's final set, gives D = 54), then those of
-    ``config.observation.critic_features``, which only the critic reads (a privileged critic; the exported
-    policy takes the first part alone). Every feature (a height scan's size is its grid's,
-    ``config.observation.scan``):
-
-    {observation_table}
-
-    ## Rewards
-    :func:`krl.task.reward.reward_terms` with ``config.env.reward`` (a :class:`krl.task.reward.RewardConfig`;
-    agent-rp's by default: Table 4.8 plus roll/pitch): one RBF term per entry of ``reward.terms``
-    (``weight * exp(-q * ||target - measured||^2)``), ``fall`` on the step the robot falls and
-    ``target_reached`` on the step it comes within D_min of its waypoint. ``info["reward_terms"]`` holds every
-    term of the step, and they sum to the reward.
-
-    ## Starting state
-    The robot stands at the terrain's spawn point facing a random direction; waypoints are drawn
-    ``config.env.target_distance`` m apart, ``config.env.field_margin`` m inside the field. The terrain is a
-    random height field with probability ``config.env.heightfield_probability``, stepped pyramids with
-    ``config.env.pyramids_probability`` (0, the thesis's, by default), else Perlin hills, kept for
-    ``config.env.episodes_per_terrain`` episodes, its ground friction μ ~ U(``config.env.friction``) (1, the
-    thesis's, by default). Pushes (``config.env.pushes``) come every ``push_interval`` s with a force of
-    ``push_magnitude`` N. ``reset(seed=s)`` seeds all of these.
-
-    ## Episode end
-    Terminates when the robot falls (``docs/sim.md``); truncates after ``config.env.episode_time`` s (60 s:
-    the thesis counts the targets reached in 60 s). The last step's ``info["episode"]`` holds the episode's
-    sums (:data:`EPISODE_INFO_KEYS`).
-
-    ## Arguments
-    - ``config``: the agent's configuration (default :class:`krl.agent.config.AgentConfig`).
-    - ``kernel_path``: the kernel file (default: the one ``config.residual.kernel`` names).
-    - ``render_mode``: None or ``"rgb_array"`` (frames from a camera tracking the trunk).
-    """
-
-    metadata: ClassVar[dict[str, Any]] = {
-        "render_modes": ["rgb_array"],
-        "render_fps": round(1.0 / CONTROL_DT),
-    }
-
-    def __init__(
-        self,
-        config: AgentConfig | None = None,
-        kernel_path: str | None = None,
-        render_mode: str | None = None,
-    ) -> None:
-        if render_mode not in (None, "rgb_array"):
-            raise ValueError(f"unknown render_mode {render_mode!r}; supported: rgb_array")
-        self.batch = ResidualEnvBatch(config or AgentConfig(), 1, kernel_path)
-        self.render_mode = render_mode
-        self._renderer = None
-        self.action_size = self.batch.config.residual.action_size
-        self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(self.action_size,), dtype=np.float32)
-        self.observation_space = gym.spaces.Box(
-            -np.inf, np.inf, shape=(self.batch.observation_size,), dtype=np.float32
-        )
-        self._last_terms: dict[str, float] = {}
-
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
-        if seed is not None:
-            self.batch.seed(0, seed)
-        observation = self.batch.reset([0])[0]
-        return observation, {"terrain": self.batch.terrain_names[0]}
-
-    def step(self, action):
-        """One 200 Hz control step: Gymnasium's ``(observation, reward, terminated, truncated, info)``."""
-        action = np.asarray(action, dtype=float)
-        if action.shape != (self.action_size,):
-            raise ValueError(
-                f"an action has shape ({self.action_size},) (krl.agent.action lists its parts), "
-                f"got {action.shape}"
-            )
-        action = action[None, :]
-        observations, rewards, terminated, truncated, infos = self.batch.step(action)
-        info = infos[0]
-        info["reward_terms"] = {name: float(values[0]) for name, values in self.batch.last_terms.items()}
-        return observations[0], float(rewards[0]), bool(terminated[0]), bool(truncated[0]), info
-
-    def render(self):
-        if self.render_mode != "rgb_array":
-            return None
-        if self._renderer is None:
-            from krl.sim.render import FrameRenderer
-
-            self._renderer = FrameRenderer(self.batch.sims.model(0), 640, 480)
-        return self._renderer.render(self.batch.sims.data(0))
-
-    def close(self) -> None:
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
-
-
-if A1ResidualEnv.__doc__:  # None under python -OO
-    A1ResidualEnv.__doc__ = A1ResidualEnv.__doc__.replace(
-        "{observation_table}", observation_table().replace("\n", "\n    ")
-    )
 
 
 class ResidualVecEnv(BatchVecEnv):

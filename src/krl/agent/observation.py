@@ -4,7 +4,7 @@ Every feature is computed for a batch of N robots at once from the step's :class
 The default set is the thesis's final one (4.2.8.3); the optional ones are those of Fig. 4.20.
 
 :func:`observation_table` writes the table of every feature (name, size, unit, what) from
-:data:`FEATURES`, the one registry; :class:`krl.agent.env.A1ResidualEnv`'s docstring shows it.
+:data:`FEATURES`, the one registry; :class:`krl.envs.residual.A1ResidualEnv`'s docstring shows it.
 :func:`layout` gives the slices of a configured observation.
 """
 

@@ -19,7 +19,7 @@ class BatchVecEnv(VecEnv):
     """A ``VecEnv`` of N environments held as one batch (see the module docstring)."""
 
     render_mode = None
-    """SB3 asks; frames come from :class:`krl.agent.env.A1ResidualEnv`."""
+    """SB3 asks; frames come from :class:`krl.envs.residual.A1ResidualEnv`."""
 
     def get_attr(self, attr_name: str, indices=None) -> list[Any]:
         """The batch's attribute, once per index; AttributeError when it has none (SB3's ``has_attr``)."""

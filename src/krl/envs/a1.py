@@ -1,7 +1,9 @@
 """``krl/A1-v0``: the A1 on any terrain, driven by 12 joint-angle targets through the 1 kHz PD.
 
-This is the joint-space base environment; the residual environment of later work builds on the same
-simulator (:class:`krl.sim.robot.A1Sim`). ``docs/envs.md`` documents the spaces and the episode rules.
+This is the joint-space base environment; like the residual environment (:mod:`krl.envs.residual`) it
+steps its robot through the one episode loop (:class:`krl.task.episode.EpisodeBatch`), here with a task that
+holds a zero command and never ends, so only a fall ends its episode. ``docs/envs.md`` documents the spaces
+and the episode rules.
 """
 
 from __future__ import annotations
@@ -13,8 +15,12 @@ import gymnasium as gym
 import numpy as np
 
 from krl.robots.a1.constants import JOINT_LOWER, JOINT_UPPER, NUM_JOINTS, STANDING_JOINT_ANGLES
+from krl.sim.batch import joint_vector
 from krl.sim.model import build_model
 from krl.sim.robot import A1Sim, RobotState
+from krl.task.episode import EpisodeBatch
+from krl.task.reward import EVALUATION_REWARD
+from krl.task.runner import HoldTask
 from krl.util.timing import CONTROL_DT
 
 OBSERVATION_LAYOUT: tuple[tuple[str, int], ...] = (
@@ -39,6 +45,9 @@ OBSERVATION_SIZE: int = _start
 
 INITIAL_JOINT_NOISE: float = 0.05
 """Half-width of the uniform noise added to the standing pose at reset [rad]."""
+
+_ENDLESS = np.iinfo(np.int64).max
+"""Control steps of the zero-command task: more than any episode takes (the registered id truncates)."""
 
 
 def observation_vector(state: RobotState, ground_height: float) -> np.ndarray:
@@ -90,6 +99,8 @@ class A1Env(gym.Env):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"unknown render_mode {render_mode!r}; supported: rgb_array")
         self.sim = A1Sim(build_model(terrain, terrain_params, terrain_seed))
+        self.episodes = EpisodeBatch(self.sim.backend, EVALUATION_REWARD)
+        """The episode loop over the simulator's batch of one (its reward terms are not this env's)."""
         self.render_mode = render_mode
         self._size = (width, height)
         self._renderer = None
@@ -108,15 +119,26 @@ class A1Env(gym.Env):
         noise = self.np_random.uniform(-INITIAL_JOINT_NOISE, INITIAL_JOINT_NOISE, NUM_JOINTS)
         angles = np.clip(STANDING_JOINT_ANGLES + noise, JOINT_LOWER, JOINT_UPPER)
         state = self.sim.reset(joint_angles=angles)
+        self._start_episode()
         return self._observation(state), self._info(state)
+
+    def _start_episode(self) -> None:
+        """Begin the loop's episode from the current state: a zero command, no pushes."""
+        self.episodes.start([0], [HoldTask(np.zeros(3), _ENDLESS, 1)], [None])
 
     def step(self, action):
         """One 200 Hz control step: Gymnasium's ``(observation, reward, terminated, truncated, info)``."""
         action = np.asarray(action, dtype=float)
         if action.shape != (NUM_JOINTS,):
             raise ValueError(f"action must have shape (12,), got {action.shape}")
-        state = self.sim.step(np.clip(action, JOINT_LOWER, JOINT_UPPER))
-        terminated = state.fallen
+        q_target = joint_vector(np.clip(action, JOINT_LOWER, JOINT_UPPER), "q_target")
+        if not self.episodes.active[0]:  # stepped on after a fall: the simulation goes on
+            self._start_episode()
+        step = self.episodes.step(q_target[None])
+        if step.unstable[0]:
+            raise self.sim.backend.divergence(0)
+        state = self.sim.state
+        terminated = bool(step.fell[0])
         reward = 0.0 if terminated else 1.0
         return self._observation(state), reward, terminated, False, self._info(state)
 

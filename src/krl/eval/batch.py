@@ -12,21 +12,21 @@ run took while sharing the batch) differs.
 
 from __future__ import annotations
 
-import time
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from krl.control.commands import CommandParams
 from krl.control.types import attach_scene
-from krl.eval.episodes import EpisodeScorer, push_attempt_metrics
-from krl.sim.backend import SimBackend, make_backend
+from krl.eval.episodes import push_attempt_metrics, run_metrics
+from krl.sim.backend import make_backend
 from krl.sim.model import BuiltModel, build_model
 from krl.sim.pushes import OnePush, Push
-from krl.task.episode import EpisodeBatch, EpisodeStep
+from krl.task.episode import EpisodeBatch
+from krl.task.record import EpisodeRecords
 from krl.task.reward import EVALUATION_REWARD
 from krl.task.waypoints import TaskStatus, WaypointTask
 from krl.util.timing import CONTROL_DT
@@ -59,12 +59,10 @@ class _Run:
     index: int
     """The run's place in :func:`run_batch`'s runs."""
     task: WaypointTask
-    scorer: EpisodeScorer
-    push: Push | None
-    started: float = field(default_factory=time.perf_counter)
-    """Wall clock at its start [s]."""
-    push_heading: float | None = None
-    """The base's yaw [rad] before the push's first control step (None until the push came)."""
+    targets: int
+    """Its waypoints."""
+    pushed: bool
+    """It has a push (its record carries ``push_heading``)."""
 
 
 def _walk(run, flat: list[BuiltModel], models: dict[str, BuiltModel]) -> _Walk:
@@ -97,6 +95,7 @@ def run_batch(runs: Sequence) -> list[dict[str, Any]]:
     slots = min(BATCH_SLOTS, len(runs))
     sims = make_backend([walks[0].built] * slots)
     episodes = EpisodeBatch(sims, EVALUATION_REWARD)
+    records = EpisodeRecords(slots)
     controller = spec.build_batch(seed, slots)
     attach_scene(controller, sims)
     waiting = deque(range(len(runs)))
@@ -115,18 +114,19 @@ def run_batch(runs: Sequence) -> list[dict[str, Any]]:
         task.reset(state.base_pos[:2])
         push = walk.push
         over = episodes.start([slot], [task], [None if push is None else OnePush(push, walk.heading_frame)])
-        running[slot] = _Run(index, task, EpisodeScorer(walk.targets), push)
+        records.begin([slot], [push])
+        running[slot] = _Run(index, task, len(walk.targets), push is not None)
         if over[0]:  # every waypoint within reach at the start: a walk of no step
-            running[slot].scorer.passed(task.reached_count)
-            end(slot, timed_out=task.status is TaskStatus.TIMED_OUT)
+            end(slot)
 
-    def end(slot: int, timed_out: bool = False, error: str | None = None) -> None:
+    def end(slot: int, error: str | None = None) -> None:
         run = running[slot]
         episodes.stop(slot)
-        wall = time.perf_counter() - run.started
-        result = run.scorer.metrics(float(sims.step_counts[slot] * CONTROL_DT), wall, timed_out, error)
-        if run.push is not None:
-            result["push_heading"] = run.push_heading
+        task = run.task
+        record = records.finish(slot, task.reached_count, task.status is TaskStatus.TIMED_OUT, error)
+        result = run_metrics(record, run.targets, float(sims.step_counts[slot] * CONTROL_DT))
+        if run.pushed:
+            result["push_heading"] = record.push_heading
         metrics[run.index] = result
         running[slot] = None
 
@@ -141,25 +141,16 @@ def run_batch(runs: Sequence) -> list[dict[str, Any]]:
         for slot, error in failed.items():
             end(slot, error=f"{type(error).__name__}: {error}")
         step = episodes.step(*command)
-        for slot in rows.tolist():
-            if running[slot] is not None:
-                _count(step, slot, running[slot], sims, end)
+        walked = [slot for slot in rows.tolist() if running[slot] is not None]
+        for slot in walked:
+            if step.unstable[slot]:
+                end(slot, error=f"SimulationUnstableError: {sims.divergence(slot)}")
+        walked = [slot for slot in walked if running[slot] is not None]
+        records.add(step, walked, sims.step_counts)
+        for slot in walked:
+            if step.ended[slot]:
+                end(slot)
     return [_record(*parts) for parts in zip(runs, walks, metrics, strict=True)]
-
-
-def _count(step: EpisodeStep, slot: int, run: _Run, sims: SimBackend, end) -> None:
-    """Score robot ``slot``'s part of ``step`` into its run, and end the run where the step ended it."""
-    if step.unstable[slot]:
-        end(slot, error=f"SimulationUnstableError: {sims.divergence(slot)}")
-        return
-    run.scorer.add(step, slot)
-    push = run.push
-    if push is not None and run.push_heading is None and push.active_at(int(sims.step_counts[slot]) - 1):
-        run.push_heading = float(step.before.rpy[slot, 2])  # the step just taken is the push's first
-    if step.ended[slot]:
-        timed_out = run.task.status is TaskStatus.TIMED_OUT and not step.fell[slot]
-        run.scorer.passed(run.task.reached_count)
-        end(slot, timed_out=bool(timed_out))
 
 
 def _record(run, walk: _Walk, metrics: dict[str, Any]) -> dict[str, Any]:

@@ -1,14 +1,14 @@
 """Scoring one run: a course from one start pose, or one attempt of the push sweep; the friction sweep.
 
-:class:`EpisodeScorer` watches a :class:`krl.task.runner.Runner` step by step and adds up the reward terms
-(:mod:`krl.task.reward`), the waypoints reached and the distance walked; :func:`score_walk` runs a walk under
-it and returns the run's metrics as a JSON-ready dict (keys in :data:`RUN_METRICS`).
+:func:`score_walk` walks a :class:`krl.task.runner.Runner` and keeps its episode's record
+(:class:`krl.task.record.EpisodeRecords`: the reward terms, the waypoints reached, the distance walked, the
+heading at the push); :func:`run_metrics` turns the record into the run's metrics, a JSON-ready dict (keys
+in :data:`RUN_METRICS`), as batched evaluation (:mod:`krl.eval.batch`) does too.
 """
 
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,9 +21,10 @@ from krl.eval.summaries import PUSH_DIRECTIONS, QUARTER
 from krl.sim.pushes import OnePush, check_push_magnitude
 from krl.sim.robot import SimulationUnstableError
 from krl.sim.terrains import MAX_GROUND_FRICTION
-from krl.task.episode import EpisodeStep, ending
+from krl.task.episode import EpisodeStep
+from krl.task.record import EpisodeRecord, EpisodeRecords
 from krl.task.reward import EVALUATION_REWARD, RewardConfig
-from krl.task.runner import Runner, StepRecord
+from krl.task.runner import Runner, RunResult, StepRecord
 from krl.task.waypoints import TARGET_TIME_LIMIT
 from krl.util.thesis import THESIS_PUSH_ATTEMPTS, THESIS_PUSH_MAGNITUDES
 
@@ -44,73 +45,34 @@ RUN_METRICS: tuple[str, ...] = (
     "sim_seconds",
     "wall_seconds",
 )
-"""Keys of a run's metrics (:meth:`EpisodeScorer.metrics`). Records made before ``ended`` existed lack it."""
+"""Keys of a run's metrics (:func:`run_metrics`). Records made before ``ended`` existed lack it."""
 
 
-class EpisodeScorer:
-    """Told every control step of a walk (:meth:`add`, from ``Runner.walk_to(on_task_step=...)`` or from
-    batched evaluation); accumulates one run's metrics from what the episode loop made of the step
-    (:class:`krl.task.episode.EpisodeStep`: the reward terms, the waypoint reached, the fall), so the score
-    and the walk cannot disagree.
-
-    Args:
-        targets: the run's waypoints, world (x, y) [m]. Shape: (N, 2).
+def run_metrics(record: EpisodeRecord, targets: int, sim_seconds: float) -> dict[str, Any]:
+    """A run's metrics (keys :data:`RUN_METRICS`) from its episode's ``record`` (:mod:`krl.task.record`),
+    the number of its waypoints and its simulated time [s]. The reward total is the sum of the term totals,
+    the reward per step that over the steps taken (0 for no step). A run an ``error`` ended (the simulation
+    diverged, the MPC gave up) is no success, and the aggregates count it as a fall.
     """
-
-    def __init__(self, targets: np.ndarray) -> None:
-        self.targets = np.asarray(targets, dtype=float).reshape(-1, 2)
-        self.steps = 0
-        self.targets_reached = 0
-        self.fell = False
-        self.term_sums: dict[str, float] = {}
-        self.distance_walked = 0.0
-        """Planar path length of the base [m]."""
-
-    def add(self, step: EpisodeStep, index: int = 0) -> None:
-        """Count robot ``index``'s part of the control step ``step``."""
-        for name, values in step.terms.items():
-            self.term_sums[name] = self.term_sums.get(name, 0.0) + values[index]
-        self.steps += 1
-        self.targets_reached += bool(step.reached[index])
-        self.fell = self.fell or bool(step.fell[index])
-        moved = step.states.base_pos[index, :2] - step.before.base_pos[index, :2]
-        self.distance_walked += math.hypot(moved[0], moved[1])
-
-    def passed(self, count: int) -> None:
-        """Count the waypoints the walk's task left behind (``count``): a step can leave two behind when
-        the next one already lies within D_min, and the step that reached it counted only one."""
-        self.targets_reached = max(self.targets_reached, count)
-
-    def metrics(
-        self, sim_seconds: float, wall_seconds: float, timed_out: bool, error: str | None = None
-    ) -> dict[str, Any]:
-        """The run's metrics (reward per step is the total over the steps taken, 0 for no step).
-
-        ``error`` is the one-line reason a run ended early without a fall (the simulation diverged, the
-        MPC gave up); such a run is no success, and the aggregates count it as a fall. ``ended`` says why
-        the walk ended (one of :data:`krl.task.episode.ENDINGS`).
-        """
-        total = sum(self.term_sums.values())
-        count = len(self.targets)
-        success = self.targets_reached == count and not self.fell and error is None
-        ended = ending(error, self.fell, timed_out)
-        return {
-            "targets": count,
-            "targets_reached": self.targets_reached,
-            "success": success,
-            "fell": self.fell,
-            "timed_out": timed_out,
-            "error": error,
-            "ended": ended,
-            "steps": self.steps,
-            "reward_total": total,
-            "reward_per_step": total / self.steps if self.steps else 0.0,
-            "reward_terms": dict(self.term_sums),
-            "time_to_finish": sim_seconds if success else None,
-            "distance_walked": self.distance_walked,
-            "sim_seconds": sim_seconds,
-            "wall_seconds": wall_seconds,
-        }
+    total = sum(record.terms.values())
+    success = record.targets_reached == targets and not record.fell and record.error is None
+    return {
+        "targets": targets,
+        "targets_reached": record.targets_reached,
+        "success": success,
+        "fell": record.fell,
+        "timed_out": record.timed_out,
+        "error": record.error,
+        "ended": record.ended,
+        "steps": record.steps,
+        "reward_total": total,
+        "reward_per_step": total / record.steps if record.steps else 0.0,
+        "reward_terms": dict(record.terms),
+        "time_to_finish": sim_seconds if success else None,
+        "distance_walked": record.distance_walked,
+        "sim_seconds": sim_seconds,
+        "wall_seconds": record.wall_seconds,
+    }
 
 
 def score_walk(
@@ -140,20 +102,15 @@ def score_walk(
     """
     from dataclasses import replace
 
-    scorer = EpisodeScorer(targets)
+    records = EpisodeRecords(1)
     recorder = None
     if video is not None:
         from krl.sim.video import VideoRecorder
 
         recorder = VideoRecorder(sim, video)
 
-    push_heading: float | None = None
-
     def on_step(record: StepRecord, step: EpisodeStep) -> None:
-        nonlocal push_heading
-        scorer.add(step)
-        if push is not None and push_heading is None and push.active_at(sim.step_count - 1):
-            push_heading = float(record.before.rpy[2])  # the step just taken is the push's first
+        records.add(step, [0], np.array([sim.step_count]))
         for capturing in (recorder, frames):
             if capturing is not None:
                 capturing.capture()
@@ -161,8 +118,8 @@ def score_walk(
             trace.append(record.after.base_pos.copy())
 
     runner = Runner(sim, controller, replace(CommandParams(), d_min=d_min), reward=reward)
-    wall = time.perf_counter()
-    timed_out, error = False, None
+    records.begin([0], [push])
+    result, error = RunResult(), None
     try:
         result = runner.walk_to(
             targets,
@@ -172,16 +129,15 @@ def score_walk(
             on_task_step=on_step,
             pushes=None if push is None else OnePush(push, push_in_heading_frame),
         )
-        timed_out = result.timed_out
-        scorer.passed(result.targets_reached)
     except (SimulationUnstableError, MPCError) as failure:
         error = f"{type(failure).__name__}: {failure}"
     finally:
         if recorder is not None:
             recorder.close()
-    metrics = scorer.metrics(sim.time, time.perf_counter() - wall, timed_out, error)
+    record = records.finish(0, result.targets_reached, result.timed_out, error)
+    metrics = run_metrics(record, len(targets), sim.time)
     if push is not None:
-        metrics["push_heading"] = push_heading
+        metrics["push_heading"] = record.push_heading
     return metrics
 
 
