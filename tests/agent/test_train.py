@@ -223,3 +223,13 @@ def test_a_goal_within_a_rollout_says_it_trains_the_whole_rollout(tmp_path, smal
     summary = train(out, small_config, seed=1, total_steps=300, progress=False, log=messages.append)
     assert messages == ["PPO trains whole rollouts of 256 env steps: this sitting trains to 512, not 300"]
     assert summary["env_steps"] == 512
+
+
+def test_a_run_resumes_with_a_config_that_names_no_worker_count(tmp_path, small_config):
+    """A recipe file without ``workers`` (a new run resolves it to one per usable core) resumes the same way:
+    the second sitting of such a run failed with a TypeError on ``None * num_envs``."""
+    out = tmp_path / "run"
+    recipe = replace(small_config, workers=None)
+    train(out, recipe, seed=3, total_steps=256, progress=False, log=lambda _: None)
+    summary = train(out, recipe, seed=3, total_steps=512, progress=False, log=lambda _: None)
+    assert summary["env_steps"] == 512

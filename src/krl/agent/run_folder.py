@@ -94,7 +94,8 @@ def open_run(
 def _reopen_run(
     out: Path, config: AgentConfig | None, seed: int | None, init_from: Path | None, overrides: dict[str, int]
 ) -> tuple[AgentConfig, dict[str, Any]]:
-    """A resumed run's stored config (with the worker count asked for) and run record; refuses a
+    """A resumed run's stored config (with the worker count asked for; one per usable core where the
+    config asked with names none, as for a new run) and run record; refuses a
     resumption asked with another config (``workers`` aside: it only spreads the env steps over
     processes), another seed or another run to start from."""
     try:
@@ -115,7 +116,8 @@ def _reopen_run(
         started_from is None or Path(started_from).resolve() != init_from.resolve()
     ):
         raise TrainingError(f"run {out} was not started from {init_from}; drop --init-from to resume it")
-    return replace(stored, workers=asked.workers), run
+    workers = usable_cores() if asked.workers is None else asked.workers  # a config that names none
+    return replace(stored, workers=workers), run
 
 
 def _difference(stored: AgentConfig, asked: AgentConfig) -> str | None:
