@@ -253,6 +253,15 @@ def push_left_right_markdown(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _seeded_rows(rows: list[dict[str, Any]], key: str, value: Any) -> list[dict[str, Any]]:
+    """The rows whose ``key`` is ``value``, each a training seed's named so beside its controller."""
+    return [
+        {**r, "controller": r["controller"] + (f" seed {r['seed']}" if "seed" in r else "")}
+        for r in rows
+        if r[key] == value
+    ]
+
+
 def friction_markdown(rows: list[dict[str, Any]]) -> str:
     """One table per course: a row per controller (and per training seed), a column per μ, falling."""
     lines = [
@@ -263,11 +272,7 @@ def friction_markdown(rows: list[dict[str, Any]]) -> str:
         "in `friction.csv`.",
     ]
     for course in dict.fromkeys(r["course"] for r in rows):
-        mine = [
-            {**r, "controller": r["controller"] + (f" seed {r['seed']}" if "seed" in r else "")}
-            for r in rows
-            if r["course"] == course
-        ]
+        mine = _seeded_rows(rows, "course", course)
         frictions = sorted({r["friction"] for r in mine}, reverse=True)
         lines += [
             "",
@@ -399,11 +404,7 @@ def stairs_markdown(rows: list[dict[str, Any]]) -> str:
         "rates' 95 % Wilson intervals are in `stairs.csv`.",
     ]
     for direction in dict.fromkeys(r["direction"] for r in rows):
-        mine = [
-            {**r, "controller": r["controller"] + (f" seed {r['seed']}" if "seed" in r else "")}
-            for r in rows
-            if r["direction"] == direction
-        ]
+        mine = _seeded_rows(rows, "direction", direction)
         risers = sorted({r["riser"] for r in mine})
         trained = {r["controller"]: r["trained_risers"] for r in mine}
         table = controller_table(
