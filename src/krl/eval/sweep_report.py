@@ -450,16 +450,15 @@ def write_sweep_sections(
             parts.append(push_left_right_markdown(sides))
             write_atomic(out / "push-left-right.csv", rows_csv(sides))
             written.append(str(out / "push-left-right.csv"))
-    frictions = friction_rows(found)
-    if frictions:
-        parts += [friction_markdown(frictions), "![success against ground friction](friction.png)\n"]
-        write_atomic(out / "friction.csv", rows_csv(frictions))
-        plot_friction(out / "friction.png", frictions)
-        written += [str(out / name) for name in ("friction.csv", "friction.png")]
-    stairs = stair_rows(found)
-    if stairs:
-        parts += [stairs_markdown(stairs), "![success against riser height](stairs.png)\n"]
-        write_atomic(out / "stairs.csv", rows_csv(stairs))
-        plot_stairs(out / "stairs.png", stairs)
-        written += [str(out / name) for name in ("stairs.csv", "stairs.png")]
+    frictions, stairs = friction_rows(found), stair_rows(found)
+    sections = (
+        (frictions, friction_markdown, plot_friction, "friction", "success against ground friction"),
+        (stairs, stairs_markdown, plot_stairs, "stairs", "success against riser height"),
+    )
+    for rows, markdown, plot, name, caption in sections:
+        if rows:
+            parts += [markdown(rows), f"![{caption}]({name}.png)\n"]
+            write_atomic(out / f"{name}.csv", rows_csv(rows))
+            plot(out / f"{name}.png", rows)
+            written += [str(out / f"{name}.csv"), str(out / f"{name}.png")]
     return parts, written, pushes, frictions, stairs
