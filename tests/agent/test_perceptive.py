@@ -225,3 +225,26 @@ def test_the_exported_policy_takes_the_actors_inputs_and_says_how_to_scan(tmp_pa
     names = [row["name"] for row in contract["observation"]]
     assert names == list(config.observation.features) and not set(names) & set(CRITIC)
     assert contract["height_scan"]["points"] == [[round(x, 9), round(y, 9)] for x, y in SMALL_SCAN.points()]
+
+
+def test_a_checkpoint_on_an_interruption_saves_the_levels_without_asking_the_workers():
+    """SIGTERM between a step's actions and its answers: asking the workers for their levels then read a
+    step's answer as theirs and the interrupted run failed to save its checkpoint."""
+    from types import SimpleNamespace
+
+    from krl.agent.terrain_curriculum import TerrainCurriculumLog
+
+    answers = [np.array([2, 0, 1])]
+
+    def terrain_levels():
+        if not answers:
+            raise AssertionError("the workers were asked mid-step")
+        return answers.pop()
+
+    log = TerrainCurriculumLog()
+    recorded = {}
+    env = SimpleNamespace(unwrapped=SimpleNamespace(terrain_levels=terrain_levels))
+    log.model = SimpleNamespace(get_env=lambda: env, logger=SimpleNamespace(record=recorded.__setitem__))
+    log._on_rollout_end()
+    assert recorded == {"curriculum/terrain_level": 1.0, "curriculum/terrain_level_max": 2}
+    assert log.state() == {"terrain_levels": [2, 0, 1]}  # no second question to the workers

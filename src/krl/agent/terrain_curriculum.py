@@ -106,21 +106,30 @@ def saved_levels(checkpoint: Path | None) -> list[int] | None:
 class TerrainCurriculumLog(BaseCallback):
     """Logs every robot's level after each rollout and keeps them for the checkpoints.
 
-    Must come before :class:`krl.agent.callbacks.Checkpointer`, so that a checkpoint saved at a rollout's
-    end holds the levels the robots are on.
+    The levels are read from the workers at each rollout's end, when every step's answer has been
+    gathered, and a checkpoint saves the last levels read: a checkpoint saved on an interruption (SIGTERM
+    arrives between a step's actions and its answers) must not ask the workers anything, or it would read a
+    step's answer as theirs. Must come before :class:`krl.agent.callbacks.Checkpointer`, so that a checkpoint
+    saved at a rollout's end holds the levels the robots are on.
     """
 
-    def _levels(self) -> np.ndarray:
-        return self.training_env.unwrapped.terrain_levels()
+    def __init__(self) -> None:
+        super().__init__()
+        self.levels: list[int] | None = None
+        """Every robot's level at the last rollout's end (None before the first)."""
+
+    def _read_levels(self) -> list[int]:
+        self.levels = [int(level) for level in self.training_env.unwrapped.terrain_levels()]
+        return self.levels
 
     def state(self) -> dict[str, Any]:
-        """What a checkpoint saves of the curriculum: every robot's level now."""
-        return {"terrain_levels": [int(level) for level in self._levels()]}
+        """What a checkpoint saves of the curriculum: every robot's level at the last rollout's end."""
+        return {"terrain_levels": self._read_levels() if self.levels is None else list(self.levels)}
 
     def _on_step(self) -> bool:
         return True
 
     def _on_rollout_end(self) -> None:
-        levels = np.maximum(self._levels(), 0)
+        levels = np.maximum(self._read_levels(), 0)
         self.logger.record("curriculum/terrain_level", float(np.mean(levels)))
         self.logger.record("curriculum/terrain_level_max", int(np.max(levels)))
