@@ -204,7 +204,7 @@ class ResidualEnvBatch:
         sensed = None
         if self.sensing.needed:
             shares = np.zeros(self.num_envs)
-            if self.curriculum is not None:
+            if self.curriculum is not None and "terrain_level" in self.sensing.names:
                 shares = np.array([difficulty(self.curriculum, max(int(level), 0)) for level in self.levels])
             sensed = self.sensing.measure(self.sims, self.states, shares)
         inputs = self.controller.observation_inputs(self.states, sensed)
