@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from krl.sim.model import build_model
-from krl.sim.scan import TerrainScanner, box_top, heading_points_to_world
+from krl.sim.scan import GroundStack, TerrainScanner, box_top, heading_points_to_world
 from krl.sim.terrains import TERRAIN_NAMES
 
 TOLERANCE = 1e-6
@@ -88,3 +88,31 @@ def test_heading_points_turn_with_the_yaw():
     points = np.array([[1.0, 0.0], [0.0, 1.0]])
     world = heading_points_to_world(points, np.array([2.0, 3.0, 0.3]), math.pi / 2)
     np.testing.assert_allclose(world, [[2.0, 4.0], [1.0, 3.0]], atol=1e-12)
+
+
+def test_heading_points_of_many_robots_are_each_robots_own():
+    """N robots at once give, bit for bit, what each gives alone."""
+    rng = np.random.default_rng(1)
+    points, base, yaw = rng.uniform(-1, 1, (187, 2)), rng.uniform(-5, 5, (16, 3)), rng.uniform(-4, 4, 16)
+    together = heading_points_to_world(points, base, yaw)
+    assert together.shape == (16, 187, 2)
+    for n in range(16):
+        assert np.array_equal(together[n], heading_points_to_world(points, base[n], yaw[n]))
+
+
+def test_the_ground_of_many_terrains_read_at_once_is_each_terrains_own():
+    """GroundStack groups the terrains by the class of their surface and reads each group in one pass: the
+    heights are bit for bit each terrain's own ground_height, on every terrain kind mixed in one batch (two
+    draws of each, points on and beyond the fields), and they follow a robot's terrain when it changes."""
+    terrains = [build_model(name, seed=seed).terrain for name in TERRAIN_NAMES for seed in (3, 4)]
+    rng = np.random.default_rng(2)
+    xy = rng.uniform(-9.0, 9.0, (len(terrains), 187, 2))
+    ground = GroundStack()
+
+    def each_alone(terrains):
+        return np.stack([t.ground_height(xy[n, :, 0], xy[n, :, 1]) for n, t in enumerate(terrains)])
+
+    assert np.array_equal(ground.heights(terrains, xy), each_alone(terrains))
+    assert [t.name for t in terrains if t.surface is None] == ["stairs", "stairs"]  # read one at a time
+    changed = [terrains[-1], *terrains[1:-1], terrains[0]]
+    assert np.array_equal(ground.heights(changed, xy), each_alone(changed))

@@ -43,7 +43,7 @@ from krl.robots.a1.constants import (
 )
 from krl.sim.model import BuiltModel
 from krl.sim.pushes import Push
-from krl.sim.scan import TerrainScanner, heading_points_to_world
+from krl.sim.scan import GroundStack, TerrainScanner, heading_points_to_world
 from krl.sim.state import FIELD_NAMES, RobotState, StateBatch, state_fields
 from krl.sim.terrains import Terrain
 from krl.util.timing import CONTROL_DT, SUBSTEPS
@@ -253,6 +253,8 @@ class SimBatch:
         trunk's touch sensors in the ``sensordata`` it copies: the same in every A1 model."""
         self._views = [self._readout_views(robot) for robot in self._robots]
         self.unstable = np.zeros(len(self._robots), dtype=bool)
+        self._ground = GroundStack()
+        """The robots' fixed ground, read at once by :meth:`terrain_heights`."""
         """Robots whose physics diverged in the last :meth:`step`. Shape: (N,), bool."""
         self._errors: list[SimulationUnstableError | None] = [None] * len(self._robots)
         for robot in self._robots:
@@ -372,12 +374,13 @@ class SimBatch:
         y left, origin under each robot's trunk, turned with its yaw), as each scene stands now: moving
         props where they are (:mod:`krl.sim.scan`). Shape: (N, P)."""
         states = self._states
-        heights = np.empty((len(self._robots), len(points)))
+        xy = heading_points_to_world(points, states.base_pos, states.rpy[:, 2])
+        heights = self._ground.heights([robot.terrain for robot in self._robots], xy)
         for index, robot in enumerate(self._robots):
             if robot.scanner is None:
                 robot.scanner = TerrainScanner(robot.model, robot.terrain)
-            xy = heading_points_to_world(points, states.base_pos[index], states.rpy[index, 2])
-            heights[index] = robot.scanner.heights(robot.data, xy)
+            if len(robot.scanner.moving_boxes):
+                heights[index] = robot.scanner.add_props(robot.data, xy[index], heights[index])
         return heights
 
     @property

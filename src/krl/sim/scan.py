@@ -20,22 +20,26 @@ Points are given in the robot's *heading frame* (yaw-aligned, origin under the t
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import mujoco
 import numpy as np
 
 from krl.sim.terrains import Terrain
+from krl.sim.terrains.surface import SurfaceStack
 
 _PARALLEL: float = 1e-12
 """A box axis whose world z component is below this is parallel to the horizontal plane (slab test)."""
 
 
-def heading_points_to_world(points: np.ndarray, base_pos: np.ndarray, yaw: float) -> np.ndarray:
-    """World (x, y) [m] of heading-frame ``points`` [m], shape (P, 2), of a trunk at ``base_pos`` (shape
-    (3,), [m]) heading ``yaw`` [rad]. Shape: (P, 2)."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    x = base_pos[0] + c * points[:, 0] - s * points[:, 1]
-    y = base_pos[1] + s * points[:, 0] + c * points[:, 1]
-    return np.stack([x, y], axis=1)
+def heading_points_to_world(points: np.ndarray, base_pos: np.ndarray, yaw: np.ndarray | float) -> np.ndarray:
+    """World (x, y) [m] of heading-frame ``points`` [m], shape (P, 2), of trunks at ``base_pos`` (shape
+    (..., 3), [m]) heading ``yaw`` (shape (...), [rad]): one robot (shapes (3,) and ()) or N at once
+    (shapes (N, 3) and (N,)), the same arithmetic. Shape: (..., P, 2)."""
+    c, s = np.cos(yaw)[..., None], np.sin(yaw)[..., None]
+    x = base_pos[..., 0:1] + c * points[:, 0] - s * points[:, 1]
+    y = base_pos[..., 1:2] + s * points[:, 0] + c * points[:, 1]
+    return np.stack([x, y], axis=-1)
 
 
 class TerrainScanner:
@@ -61,11 +65,55 @@ class TerrainScanner:
     def heights(self, data: mujoco.MjData, xy: np.ndarray) -> np.ndarray:
         """Height of the topmost terrain surface at world ``xy`` [m], shape (P, 2), as the scene stands in
         ``data`` now [m]. Shape: (P,)."""
-        z = self.terrain.ground_height(xy[:, 0], xy[:, 1])
+        return self.add_props(data, xy, self.terrain.ground_height(xy[:, 0], xy[:, 1]))
+
+    def add_props(self, data: mujoco.MjData, xy: np.ndarray, ground: np.ndarray) -> np.ndarray:
+        """The heights ``ground`` [m] of the fixed ground at world ``xy`` [m] (shapes (P,) and (P, 2)), raised
+        where a moving prop's box stands above it in ``data`` now [m]. Shape: (P,)."""
+        z = ground
         for box, half in zip(self.moving_boxes, self.half_sizes, strict=True):
             top = box_top(data.geom_xpos[box], data.geom_xmat[box].reshape(3, 3), half, xy)
             z = np.fmax(z, top)
         return z
+
+
+class GroundStack:
+    """The fixed ground of N robots' terrains, read at once: the terrains whose ground is a
+    :class:`krl.sim.terrains.surface.Surface` grouped by its class, one stacked read per group (bit for bit
+    each terrain's own :meth:`krl.sim.terrains.Terrain.ground_height`), the others one at a time. The
+    stacks are rebuilt when a robot's terrain changes (a training's new episode on new ground)."""
+
+    def __init__(self) -> None:
+        self._terrains: tuple[Terrain, ...] = ()
+        self._groups: list[tuple[np.ndarray, SurfaceStack]] = []
+        self._alone: list[int] = []
+
+    def heights(self, terrains: Sequence[Terrain], xy: np.ndarray) -> np.ndarray:
+        """Height of the fixed ground of robot n's terrain at world ``xy[n]`` [m], shape (N, P, 2). Shape:
+        (N, P)."""
+        same = len(terrains) == len(self._terrains)
+        if not (same and all(a is b for a, b in zip(terrains, self._terrains, strict=True))):
+            self._group(terrains)
+        z = np.empty(xy.shape[:2])
+        for rows, stack in self._groups:
+            z[rows] = stack.height(xy[rows, :, 0], xy[rows, :, 1])
+        for row in self._alone:
+            z[row] = terrains[row].ground_height(xy[row, :, 0], xy[row, :, 1])
+        return z
+
+    def _group(self, terrains: Sequence[Terrain]) -> None:
+        self._terrains = tuple(terrains)
+        kinds: dict[type, list[int]] = {}
+        self._alone = []
+        for row, terrain in enumerate(terrains):
+            if terrain.surface is None:
+                self._alone.append(row)
+            else:
+                kinds.setdefault(type(terrain.surface), []).append(row)
+        self._groups = [
+            (np.array(rows), kind.stack([terrains[row].surface for row in rows]))
+            for kind, rows in kinds.items()
+        ]
 
 
 def box_top(centre: np.ndarray, rotation: np.ndarray, half: np.ndarray, xy: np.ndarray) -> np.ndarray:

@@ -20,6 +20,10 @@ Modules, each importing only those listed before it:
   (:class:`GroundParams`, what every terrain has, and ``FlatParams`` ... ``SeesawParams``, with
   :data:`HEIGHTFIELD_MAX_HEIGHT_RANGE` and :data:`PYRAMIDS_STEP_HEIGHT_RANGE`) and their resolution and
   bound checks.
+- :mod:`~krl.sim.terrains.tiles`: :class:`StepTiles`, the field of stepped tiles the pyramids and the pits
+  share (drawn once, read as heights).
+- :mod:`~krl.sim.terrains.surface`: a terrain's fixed ground as a :class:`Surface` (the floor, a height field
+  and its floor, stepped tiles) that stacks with others of its kind, so many terrains are read in one pass.
 - :mod:`~krl.sim.terrains.terrain`: :class:`Terrain`, what a build returns (spawn, landmarks, height query).
 - :mod:`~krl.sim.terrains.geoms`: the geom every terrain adds (collision settings, :data:`TERRAIN_FRICTION`,
   :data:`TERRAIN_PRIORITY`), the floor plane and setting the ground's friction.

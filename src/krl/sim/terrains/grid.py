@@ -7,11 +7,21 @@ Height fields follow MuJoCo's convention: ``data[r, c]`` is the vertex at ``x = 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-__all__ = ["MAX_HFIELD_SIDE", "HeightGrid", "grid_axis", "grid_count", "triangle_gradients"]
+__all__ = [
+    "MAX_HFIELD_SIDE",
+    "HeightGrid",
+    "HeightGridStack",
+    "grid_axis",
+    "grid_count",
+    "triangle_gradients",
+    "triangulated_height",
+]
 
 MAX_HFIELD_SIDE: int = 1024
 """Largest number of height-field vertices along one side (cost guard: compile time and memory)."""
@@ -69,22 +79,9 @@ class HeightGrid:
         broadcast."""
         x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
         nrow, ncol = self.heights.shape
-        u = (x - self.x0) / self.dx
-        v = (y - self.y0) / self.dy
-        c = np.clip(np.floor(u), 0, ncol - 2).astype(np.intp)
-        r = np.clip(np.floor(v), 0, nrow - 2).astype(np.intp)
-        fu = u - c
-        fv = v - r
-        h = self.heights
-        z00, z10 = h[r, c], h[r, c + 1]
-        z01, z11 = h[r + 1, c], h[r + 1, c + 1]
-        lower = fu >= fv  # triangle (00, 10, 11)
-        z = np.where(
-            lower,
-            z00 + fu * (z10 - z00) + fv * (z11 - z10),
-            z00 + fu * (z11 - z01) + fv * (z01 - z00),
+        return triangulated_height(
+            self.heights.ravel(), 0, nrow, ncol, self.x0, self.y0, self.dx, self.dy, x, y
         )
-        return np.where(self.contains(x, y), z, np.nan)
 
     def slopes(self) -> np.ndarray:
         """Slope angle of every triangle [rad]. Shape: (2, nrow - 1, ncol - 1)."""
@@ -93,6 +90,69 @@ class HeightGrid:
     def max_slope(self) -> float:
         """Steepest triangle of the surface [rad]."""
         return float(np.arctan(triangle_gradients(self.heights, self.dx, self.dy).max()))
+
+
+class HeightGridStack:
+    """Several :class:`HeightGrid` s read at once: :meth:`height` of N grids at P points each, bit for bit
+    what each grid's own :meth:`HeightGrid.height` gives (the same arithmetic, its parameters as columns).
+
+    Args:
+        grids: the N grids (any sizes and spacings).
+    """
+
+    def __init__(self, grids: Sequence[HeightGrid]) -> None:
+        shapes = np.array([grid.heights.shape for grid in grids], dtype=np.intp)
+        sizes = shapes[:, 0] * shapes[:, 1]
+        self.vertices = np.concatenate([grid.heights.ravel() for grid in grids])
+        """Every grid's vertex heights, one after the other [m]. Shape: (sum of nrow * ncol,)."""
+        self.start = (np.cumsum(sizes) - sizes)[:, None]
+        """Where each grid's vertices begin in :attr:`vertices`. Shape: (N, 1)."""
+        self.nrow, self.ncol = shapes[:, :1], shapes[:, 1:]
+        column = np.array([[grid.x0, grid.y0, grid.dx, grid.dy] for grid in grids])
+        self.x0, self.y0, self.dx, self.dy = (column[:, i : i + 1] for i in range(4))
+
+    def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Surface height of grid n at (x[n], y[n]) [m], shapes (N, P); NaN outside it. Shape: (N, P)."""
+        return triangulated_height(
+            self.vertices, self.start, self.nrow, self.ncol, self.x0, self.y0, self.dx, self.dy, x, y
+        )
+
+
+def triangulated_height(
+    vertices: np.ndarray,
+    start: ArrayLike,
+    nrow: ArrayLike,
+    ncol: ArrayLike,
+    x0: ArrayLike,
+    y0: ArrayLike,
+    dx: ArrayLike,
+    dy: ArrayLike,
+    x: np.ndarray,
+    y: np.ndarray,
+) -> np.ndarray:
+    """Height [m] at (x, y) [m] of the grid whose vertex heights are ``vertices[start:start + nrow * ncol]``
+    (row-major, rows along y) with column 0 at ``x0``, row 0 at ``y0`` and spacings ``dx``, ``dy`` [m], on
+    MuJoCo's triangles; NaN outside the grid. The grid's parameters broadcast against x and y, so one call
+    reads one grid (scalars) or a stack of them (columns of shape (N, 1) against points of shape (N, P))."""
+    u = (x - x0) / dx
+    v = (y - y0) / dy
+    c = np.clip(np.floor(u), 0, ncol - 2).astype(np.intp)
+    r = np.clip(np.floor(v), 0, nrow - 2).astype(np.intp)
+    fu = u - c
+    fv = v - r
+    corner = start + r * ncol + c
+    z00, z10 = vertices[corner], vertices[corner + 1]
+    z01, z11 = vertices[corner + ncol], vertices[corner + ncol + 1]
+    lower = fu >= fv  # triangle (00, 10, 11)
+    z = np.where(
+        lower,
+        z00 + fu * (z10 - z00) + fv * (z11 - z10),
+        z00 + fu * (z11 - z01) + fv * (z01 - z00),
+    )
+    x1 = x0 + (ncol - 1) * dx
+    y1 = y0 + (nrow - 1) * dy
+    inside = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+    return np.where(inside, z, np.nan)
 
 
 def triangle_gradients(h: np.ndarray, dx: float, dy: float) -> np.ndarray:

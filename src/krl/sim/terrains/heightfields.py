@@ -25,6 +25,7 @@ from krl.sim.terrains.params import (
     SlopeParams,
     sinusoid_half_size,
 )
+from krl.sim.terrains.surface import GridSurface
 from krl.sim.terrains.terrain import Terrain
 from krl.sim.terrains.tiles import StepTiles
 
@@ -91,10 +92,7 @@ def _grid_terrain(
     floor_z = float(grid.heights.min()) - _FLOOR_BELOW_HFIELD
     floor = add_floor(spec, floor_z)
 
-    def height(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        z = grid.height(x, y)
-        return np.where(np.isnan(z), floor_z, z)
-
+    surface = GridSurface(grid, floor_z)
     return Terrain(
         name=name,
         params=dataclasses.asdict(params),
@@ -102,7 +100,8 @@ def _grid_terrain(
         geom_names=("terrain", floor),
         landmarks={"field_min": (grid.x0, grid.y0), "field_max": (-grid.x0, -grid.y0)},
         grid=grid,
-        _height_fn=height,
+        _height_fn=surface.height,
+        surface=surface,
     )
 
 

@@ -15,10 +15,15 @@ import numpy as np
 
 from krl.sim.terrains.geoms import add_floor, add_geom, spec_angle
 from krl.sim.terrains.params import FlatParams, PyramidsParams, SeesawParams, StairsParams, TabletopParams
+from krl.sim.terrains.surface import FlatSurface
 from krl.sim.terrains.terrain import Terrain
 from krl.sim.terrains.tiles import StepTiles
 
 __all__ = ["build_flat", "build_pyramids", "build_seesaw", "build_stairs", "build_tabletop"]
+
+FLOOR = FlatSurface(0.0)
+"""The floor at z = 0: the flat terrain, and the fixed ground of a prop terrain (the prop's support stands
+under the prop at every tilt, so no downward ray reaches it)."""
 
 
 def build_flat(spec: mujoco.MjSpec, name: str, p: FlatParams, rng: np.random.Generator) -> Terrain:
@@ -29,7 +34,8 @@ def build_flat(spec: mujoco.MjSpec, name: str, p: FlatParams, rng: np.random.Gen
         params={},
         spawn_xy=(0.0, 0.0),
         geom_names=(floor,),
-        _height_fn=lambda x, y: np.zeros(np.shape(x)),
+        _height_fn=FLOOR.height,
+        surface=FLOOR,
     )
 
 
@@ -115,7 +121,6 @@ def build_pyramids(spec: mujoco.MjSpec, name: str, p: PyramidsParams, rng: np.ra
                 )
                 names.append(gname)
     half = tiles.half
-    height = tiles.height
 
     return Terrain(
         name=name,
@@ -123,7 +128,8 @@ def build_pyramids(spec: mujoco.MjSpec, name: str, p: PyramidsParams, rng: np.ra
         spawn_xy=(0.0, 0.0),
         geom_names=tuple(names),
         landmarks={"field_min": (-half, -half), "field_max": (half, half)},
-        _height_fn=height,
+        _height_fn=tiles.height,
+        surface=tiles,
     )
 
 
@@ -173,7 +179,7 @@ def build_tabletop(spec: mujoco.MjSpec, name: str, p: TabletopParams, rng: np.ra
         geom_names=(floor, "tabletop_post", "tabletop_plate"),
         landmarks={"pivot": (0.0, 0.0), "corner_min": (-half, -half), "corner_max": (half, half)},
         _height_fn=height,
-        _ground_fn=_floor_only,
+        surface=FLOOR,
     )
 
 
@@ -235,11 +241,5 @@ def build_seesaw(spec: mujoco.MjSpec, name: str, p: SeesawParams, rng: np.random
         geom_names=(floor, "seesaw_support", "seesaw_plank"),
         landmarks={"pivot": (0.0, 0.0), "low_end": (low_end_x, 0.0), "high_end": (high_end_x, 0.0)},
         _height_fn=height,
-        _ground_fn=_floor_only,
+        surface=FLOOR,
     )
-
-
-def _floor_only(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """The fixed ground of a prop terrain: the floor at z = 0 [m] (the prop's support stands under the prop
-    at every tilt, so no downward ray reaches it)."""
-    return np.zeros(np.shape(x))

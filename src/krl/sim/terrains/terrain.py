@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from krl.sim.terrains.grid import HeightGrid
+from krl.sim.terrains.surface import Surface
 
 __all__ = ["Terrain"]
 
@@ -40,8 +41,10 @@ class Terrain:
     grid: HeightGrid | None = field(default=None, repr=False)
     """The height field, for the height-field terrains; None otherwise."""
     _height_fn: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = field(default=None, repr=False)
-    _ground_fn: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = field(default=None, repr=False)
-    """The surface without the moving props (None: :attr:`_height_fn`, a terrain without props)."""
+    surface: Surface | None = field(default=None, repr=False)
+    """The fixed ground without the moving props, as a :class:`krl.sim.terrains.surface.Surface` that the
+    height scan reads many robots' terrains of at once; set for every terrain with props. None: the ground is
+    :attr:`_height_fn` (a terrain without props), read one terrain at a time."""
 
     def height(self, x: Any, y: Any) -> np.ndarray:
         """Height of the terrain surface at rest at world (x, y) [m], vectorised (x and y broadcast).
@@ -55,12 +58,12 @@ class Terrain:
 
     def ground_height(self, x: Any, y: Any) -> np.ndarray:
         """Height of the fixed ground at world (x, y) [m], without the moving props (the table-top's plate,
-        the seesaw's plank), vectorised (x and y broadcast); :meth:`height` for a terrain without props.
+        the seesaw's plank), vectorised (x and y broadcast): :attr:`surface`, else :meth:`height`.
         :class:`krl.sim.scan.TerrainScanner` adds the props where they are at each step."""
-        if self._ground_fn is None:
+        if self.surface is None:
             return self.height(x, y)
         x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
-        return self._ground_fn(x, y)
+        return self.surface.height(x, y)
 
     @property
     def max_slope(self) -> float | None:

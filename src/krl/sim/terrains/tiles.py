@@ -9,13 +9,15 @@ height ~ U(step_height_low, step_height_high), the tread ~ U(tread_low, tread_hi
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from krl.sim.terrains.params import PyramidsParams
 
-__all__ = ["StepTiles"]
+__all__ = ["StepTiles", "StepTilesStack", "tiles_height"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,11 +63,76 @@ class StepTiles:
     def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Height of the stacked levels at (x, y) [m] (a pyramid's; a pit is its negative), 0 on the lanes
         and beyond the field. x and y broadcast."""
-        col = np.clip(np.floor((x + self.half) / self.tile).astype(np.int64), 0, self.per_side - 1)
-        row = np.clip(np.floor((y + self.half) / self.tile).astype(np.int64), 0, self.per_side - 1)
-        # Chebyshev distance from the tile's centre, then the levels whose square still covers the point.
-        inset = 0.5 * self.base - np.maximum(np.abs(x - self.centres[col]), np.abs(y - self.centres[row]))
-        level = np.where(inset >= 0.0, np.floor(inset / self.tread[row, col]) + 1, 0)
-        level = np.minimum(level, self.levels[row, col])
-        inside = np.maximum(np.abs(x), np.abs(y)) <= self.half
-        return np.where(inside, level * self.riser[row, col], 0.0)
+        return tiles_height(
+            self.riser.ravel(), self.tread.ravel(), self.levels.ravel(), self.centres, 0, 0,
+            self.per_side, self.tile, self.base, self.half, x, y,
+        )  # fmt: skip
+
+    @staticmethod
+    def stack(fields: Sequence[StepTiles]) -> StepTilesStack:
+        """The fields read at once (:class:`StepTilesStack`)."""
+        return StepTilesStack(fields)
+
+
+class StepTilesStack:
+    """Several :class:`StepTiles` read at once: :meth:`height` of N fields at P points each, bit for bit
+    what each field's own :meth:`StepTiles.height` gives (the same arithmetic, its parameters as columns).
+
+    Args:
+        fields: the N fields.
+    """
+
+    def __init__(self, fields: Sequence[StepTiles]) -> None:
+        sides = np.array([f.per_side for f in fields], dtype=np.int64)
+        self.riser = np.concatenate([f.riser.ravel() for f in fields])
+        """Every field's risers, one after the other [m]; likewise :attr:`tread` [m] and :attr:`levels`."""
+        self.tread = np.concatenate([f.tread.ravel() for f in fields])
+        self.levels = np.concatenate([f.levels.ravel() for f in fields])
+        self.centres = np.concatenate([f.centres for f in fields])
+        """Every field's tile centres, one after the other [m]."""
+        self.tile_start = (np.cumsum(sides**2) - sides**2)[:, None]
+        """Where each field's tiles begin in :attr:`riser`. Shape: (N, 1)."""
+        self.centre_start = (np.cumsum(sides) - sides)[:, None]
+        """Where each field's centres begin in :attr:`centres`. Shape: (N, 1)."""
+        self.per_side = sides[:, None]
+        column = np.array([[f.tile, f.base, f.half] for f in fields])
+        self.tile, self.base, self.half = (column[:, i : i + 1] for i in range(3))
+
+    def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Height of field n at (x[n], y[n]) [m], shapes (N, P). Shape: (N, P)."""
+        return tiles_height(
+            self.riser, self.tread, self.levels, self.centres, self.tile_start, self.centre_start,
+            self.per_side, self.tile, self.base, self.half, x, y,
+        )  # fmt: skip
+
+
+def tiles_height(
+    riser: np.ndarray,
+    tread: np.ndarray,
+    levels: np.ndarray,
+    centres: np.ndarray,
+    tile_start: ArrayLike,
+    centre_start: ArrayLike,
+    per_side: ArrayLike,
+    tile: ArrayLike,
+    base: ArrayLike,
+    half: ArrayLike,
+    x: np.ndarray,
+    y: np.ndarray,
+) -> np.ndarray:
+    """Height [m] at (x, y) [m] of the stepped field whose tiles' ``riser``, ``tread`` and ``levels`` begin at
+    ``tile_start`` (row-major, ``per_side`` along each side) and whose centres begin at ``centre_start``;
+    tiles of side ``tile``, first levels of side ``base``, the field covering [-half, half]² [m]. The
+    field's parameters broadcast against x and y, so one call reads one field (scalars) or a stack of them
+    (columns of shape (N, 1) against points of shape (N, P))."""
+    col = np.clip(np.floor((x + half) / tile).astype(np.int64), 0, per_side - 1)
+    row = np.clip(np.floor((y + half) / tile).astype(np.int64), 0, per_side - 1)
+    at = tile_start + row * per_side + col
+    # Chebyshev distance from the tile's centre, then the levels whose square still covers the point.
+    inset = 0.5 * base - np.maximum(
+        np.abs(x - centres[centre_start + col]), np.abs(y - centres[centre_start + row])
+    )
+    level = np.where(inset >= 0.0, np.floor(inset / tread[at]) + 1, 0)
+    level = np.minimum(level, levels[at])
+    inside = np.maximum(np.abs(x), np.abs(y)) <= half
+    return np.where(inside, level * riser[at], 0.0)
