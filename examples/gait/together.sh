@@ -1,4 +1,4 @@
-# Sourced by the gait pipelines (agent-gait.sh, agent-gait-ground.sh): run commands together, pass one
+# Sourced by the pipelines under examples/ (gait, robust, perceptive): run commands together, pass one
 # SIGTERM (or Ctrl-C) on to them, which checkpoint, and stop.
 
 running=()
@@ -26,4 +26,14 @@ together() {
     fi
   done
   running=()
+}
+
+# Copy each run folder in $1 (a session's committed, unfinished runs) not yet in $2 there, except one named
+# $3 (the seed group of the agent being built, restored on its own), so a run goes on where it stopped.
+restore() {
+  [ -d "$1" ] || return 0
+  for folder in "$1"/*/; do
+    name=$(basename "$folder")
+    if [ "$name" != "${3:-}" ] && [ ! -e "$2/$name" ]; then mkdir -p "$2" && cp -r "$folder" "$2/$name"; fi
+  done
 }

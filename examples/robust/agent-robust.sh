@@ -40,15 +40,7 @@ COMMITTED=${COMMITTED:-$ROOT/training/robust}
 # shellcheck source=../gait/together.sh
 source "$HERE/../gait/together.sh"
 
-# copy each committed folder of $1 not yet in $2 there
-restore() {
-  [ -d "$1" ] || return 0
-  for folder in "$1"/*/; do
-    name=$(basename "$folder")
-    if [ "$name" != agent-robust ] && [ ! -e "$2/$name" ]; then mkdir -p "$2" && cp -r "$folder" "$2/$name"; fi
-  done
-}
-restore "$COMMITTED" "$R"
+restore "$COMMITTED" "$R" agent-robust
 restore "$COMMITTED/agent-robust" "$ROBUST"
 
 # 1. the pilot, and S
