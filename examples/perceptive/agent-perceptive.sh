@@ -14,9 +14,10 @@
 #   nohup examples/perceptive/agent-perceptive.sh >> runs/agent-perceptive.log 2>&1 &
 #
 # RUNS (default runs) holds the runs, EVAL (default evaluations/perceptive) the evaluation records, REPORT
-# (default docs/results/perceptive) the tables and plots. COMMITTED (default training/perceptive) holds the run folders a session
-# committed unfinished (config, logs, last checkpoint, policy); one not yet in RUNS/perceptive is copied there
-# first, and goes on where it stopped; COMMITTED/agent-perceptive holds the winner's seed folders the same way.
+# (default docs/results/perceptive) the tables and plots. COMMITTED (default training/perceptive) holds the
+# run folders a session committed unfinished (config, logs, last checkpoint, policy); one not yet in
+# RUNS/perceptive is copied there first, and goes on where it stopped; COMMITTED/agent-perceptive holds the
+# winner's seed folders the same way.
 set -euo pipefail
 HERE=$(dirname "$0")
 ROOT=$(cd "$HERE/../.." && pwd)

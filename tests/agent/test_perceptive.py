@@ -129,11 +129,14 @@ def test_the_environment_observes_the_scan_and_the_critics_features(small_config
 def test_promotion_demotion_and_the_top_level():
     curriculum = TerrainCurriculumConfig(levels=3, promote_targets=4, demote_targets=2)
     rng = np.random.default_rng(0)
-    assert next_level(curriculum, 0, 4, rng) == 1
-    assert next_level(curriculum, 1, 3, rng) == 1
-    assert next_level(curriculum, 1, 1, rng) == 0
-    assert next_level(curriculum, 0, 0, rng) == 0
-    assert {next_level(curriculum, 2, 9, rng) for _ in range(50)} == {0, 1, 2}
+    assert next_level(curriculum, 0, 4, False, rng) == 1
+    assert next_level(curriculum, 1, 3, False, rng) == 1
+    assert next_level(curriculum, 1, 1, False, rng) == 0
+    assert next_level(curriculum, 0, 0, False, rng) == 0
+    assert {next_level(curriculum, 2, 9, False, rng) for _ in range(50)} == {0, 1, 2}
+    # a push toppled it: nothing said of the ground, no demotion; a promotion still counts
+    assert next_level(curriculum, 1, 1, True, rng) == 1
+    assert next_level(curriculum, 1, 4, True, rng) == 2
     assert tile_params(curriculum, "pyramids", 0)["step_height_high"] == curriculum.riser[0]
     assert tile_params(curriculum, "pits", 2)["step_height_low"] == curriculum.riser[1]
 
@@ -147,8 +150,47 @@ def test_levels_follow_episodes_in_the_environment(small_config):
     assert env.batch.terrain_names[0].split("-")[0] in ("pyramids", "pits", "heightfield", "slope")
     batch = env.batch
     episode = {"targets_reached": 0}
-    batch._promote(0, episode)
+    batch._promote(0, episode, pushed_off=True)
+    assert episode["terrain_level"] == 3 and batch.levels[0] == 3 and not batch.needs_terrain[0]
+    batch._promote(0, episode, pushed_off=False)
     assert episode["terrain_level"] == 3 and batch.levels[0] == 2 and batch.needs_terrain[0]
+
+
+def _first_episodes(env: ResidualVecEnv, max_steps: int = 4000) -> dict[int, dict]:
+    """Step ``env`` with zero actions until every robot's first episode has ended: each robot's info then."""
+    ended: dict[int, dict] = {}
+    actions = np.zeros((env.num_envs, *env.action_space.shape))
+    for _ in range(max_steps):
+        _, _, dones, infos = env.step(actions)
+        for index in np.flatnonzero(dones):
+            ended.setdefault(int(index), infos[index])
+        if len(ended) == env.num_envs:
+            return ended
+    raise AssertionError(f"only {len(ended)} of {env.num_envs} episodes ended in {max_steps} steps")
+
+
+@pytest.mark.parametrize("pushes", [True, False])
+def test_a_fall_a_push_caused_does_not_demote(small_config, pushes):
+    """Pushes of 2 000 N every 0.5-0.6 s topple every robot (its info says push_survived False): its level
+    stays. Without pushes a 4 s episode ends (a fall or the time limit) short of 2 waypoints: demoted."""
+    config = _perceptive(small_config)
+    env_settings = replace(
+        config.env,
+        episode_time=4.0,
+        pushes=pushes,
+        push_interval=(0.5, 0.6),
+        push_magnitude=(2000.0, 2000.0),
+        push_curriculum=False,
+    )
+    env = ResidualVecEnv(replace(config, env=env_settings), 2, seed=4)
+    env.reset()
+    env.set_terrain_levels([2, 2])
+    env.reset()
+    for index, info in _first_episodes(env).items():
+        episode = info["episode"]
+        assert episode["terrain_level"] == 2 and episode["targets_reached"] < 2
+        assert (info.get("push_survived") is False) == pushes, info
+        assert env.batch.levels[index] == (2 if pushes else 1)
 
 
 def test_a_run_saves_its_levels_and_a_resumed_run_continues_on_them(tmp_path, small_config, monkeypatch):

@@ -256,15 +256,16 @@ class ResidualEnvBatch:
                 "terms": record.terms,
             }
             if self.curriculum is not None:
-                self._promote(index, infos[index]["episode"])
+                self._promote(index, infos[index]["episode"], infos[index].get("push_survived") is False)
         return observations, rewards, terminated, truncated, infos
 
-    def _promote(self, index: int, episode: dict[str, Any]) -> None:
-        """Record the level environment ``index``'s episode was on, and move the level by its outcome; a
-        changed level brings a new terrain at the next reset."""
+    def _promote(self, index: int, episode: dict[str, Any], pushed_off: bool) -> None:
+        """Record the level environment ``index``'s episode was on, and move the level by its outcome
+        (``pushed_off``: it ended in a fall a push caused); a changed level brings a new terrain at the next
+        reset."""
         level = int(self.levels[index])
         episode["terrain_level"] = level
-        new = next_level(self.curriculum, level, episode["targets_reached"], self.rngs[index])
+        new = next_level(self.curriculum, level, episode["targets_reached"], pushed_off, self.rngs[index])
         if new != level:
             self.levels[index] = new
             self.needs_terrain[index] = True

@@ -16,7 +16,8 @@ slope       ``slope``         angle of the ramps [rad]
 
 After each episode :func:`next_level` promotes a robot that reached ``promote_targets`` waypoints (from
 the top level to a random one, as legged_gym does, so the top levels are not all a robot sees) and demotes
-one that reached fewer than ``demote_targets``; a changed level brings a new terrain at the next reset.
+one that reached fewer than ``demote_targets``, unless a push toppled it (a fall within the push verdict's
+time says nothing of the ground); a changed level brings a new terrain at the next reset.
 The evaluation courses never appear: no stairs course, table-top or seesaw is a tile.
 
 The levels of every robot are saved in each checkpoint's ``state.json`` (``terrain_levels``) and given back
@@ -81,15 +82,24 @@ def first_level(curriculum: TerrainCurriculumConfig, rng: np.random.Generator) -
 
 
 def next_level(
-    curriculum: TerrainCurriculumConfig, level: int, targets_reached: int, rng: np.random.Generator
+    curriculum: TerrainCurriculumConfig,
+    level: int,
+    targets_reached: int,
+    pushed_off: bool,
+    rng: np.random.Generator,
 ) -> int:
-    """The level after an episode at ``level`` that reached ``targets_reached`` waypoints (a draw from
-    ``rng`` only for a promotion from the top level)."""
+    """The level after an episode at ``level`` that reached ``targets_reached`` waypoints; ``pushed_off``:
+    the episode ended in a fall within :data:`krl.task.record.PUSH_VERDICT_TIME` of a push's start (a draw
+    from ``rng`` only for a promotion from the top level).
+
+    A fall a push caused says nothing of the ground, so it never demotes: with agent-robust's pushes (up to
+    900 N every 5-8 s) most episodes end that way, and demoting for them held every robot on level 0
+    (docs/agent-perceptive.md, "The curriculum's amendment")."""
     if targets_reached >= curriculum.promote_targets:
         if level + 1 < curriculum.levels:
             return level + 1
         return int(rng.integers(curriculum.levels))
-    if targets_reached < curriculum.demote_targets:
+    if targets_reached < curriculum.demote_targets and not pushed_off:
         return max(level - 1, 0)
     return level
 
