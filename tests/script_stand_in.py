@@ -4,6 +4,7 @@ logs its arguments (and does what each test's script text says)."""
 from __future__ import annotations
 
 import os
+import subprocess
 from pathlib import Path
 
 
@@ -17,3 +18,16 @@ def stand_in_environment(folder: Path, script: str, **variables: str) -> dict[st
     return (
         os.environ | {"PATH": f"{bin_dir}:{os.environ['PATH']}", "LOG": str(folder / "krl.log")} | variables
     )
+
+
+def run_logged(script: Path, folder: Path, stand_in: str, **variables: str) -> list[str]:
+    """Run the pipeline ``script`` to its end in ``folder`` with ``stand_in`` as ``krl`` (and ``variables``
+    set); the stand-in's log, one line per ``krl`` command."""
+    env = stand_in_environment(folder, stand_in, **variables)
+    subprocess.run(["bash", str(script)], cwd=folder, env=env, check=True, capture_output=True, timeout=60)
+    return (folder / "krl.log").read_text().splitlines()
+
+
+def line_index(lines: list[str], *parts: str) -> int:
+    """The first of ``lines`` that holds every one of ``parts``."""
+    return next(i for i, line in enumerate(lines) if all(part in line for part in parts))

@@ -5,11 +5,11 @@ the winner's other two seeds train, then the evaluation of every run, the report
 from __future__ import annotations
 
 import itertools
-import subprocess
 from pathlib import Path
 
 import pytest
-from script_stand_in import stand_in_environment
+from script_stand_in import line_index as _index
+from script_stand_in import run_logged
 
 SCRIPT = Path(__file__).resolve().parents[2] / "examples" / "perceptive" / "agent-perceptive.sh"
 
@@ -27,7 +27,8 @@ fi
 
 
 def _run(tmp_path: Path, stands: str) -> list[str]:
-    env = stand_in_environment(
+    return run_logged(
+        SCRIPT,
         tmp_path,
         STAND_IN,
         STANDS=stands,
@@ -36,12 +37,6 @@ def _run(tmp_path: Path, stands: str) -> list[str]:
         REPORT="report",
         COMMITTED=str(tmp_path / "committed"),
     )
-    subprocess.run(["bash", str(SCRIPT)], cwd=tmp_path, env=env, check=True, capture_output=True, timeout=60)
-    return (tmp_path / "krl.log").read_text().splitlines()
-
-
-def _index(lines: list[str], *parts: str) -> int:
-    return next(i for i, line in enumerate(lines) if all(part in line for part in parts))
 
 
 def test_committed_run_folders_go_on_from_where_they_stopped(tmp_path):

@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import itertools
 import json
-import subprocess
 from pathlib import Path
 
 import pytest
-from script_stand_in import stand_in_environment
+from script_stand_in import line_index as _index
+from script_stand_in import run_logged
 
 SCRIPT = Path(__file__).resolve().parents[2] / "examples" / "robust" / "agent-robust.sh"
 
@@ -30,7 +30,8 @@ fi
 
 
 def _run(tmp_path: Path, stands: str) -> list[str]:
-    env = stand_in_environment(
+    return run_logged(
+        SCRIPT,
         tmp_path,
         STAND_IN,
         PILOT_CHOICE="loss",
@@ -40,8 +41,6 @@ def _run(tmp_path: Path, stands: str) -> list[str]:
         REPORT="report",
         COMMITTED=str(tmp_path / "committed"),
     )
-    subprocess.run(["bash", str(SCRIPT)], cwd=tmp_path, env=env, check=True, capture_output=True, timeout=60)
-    return (tmp_path / "krl.log").read_text().splitlines()
 
 
 def test_committed_run_folders_go_on_from_where_they_stopped(tmp_path):
@@ -59,10 +58,6 @@ def test_committed_run_folders_go_on_from_where_they_stopped(tmp_path):
     assert any("--out runs/robust/sym-seed215 " in line for line in lines)
     assert (tmp_path / "runs/agent-robust/seed345/config.json").read_text() == '{"seed": 345}'
     assert not (tmp_path / "runs/robust/agent-robust").exists()
-
-
-def _index(lines: list[str], *parts: str) -> int:
-    return next(i for i, line in enumerate(lines) if all(part in line for part in parts))
 
 
 @pytest.mark.parametrize("stands", ["true", "false"])
