@@ -14,6 +14,10 @@ The scan is the larger of the two, so a tilted plate or a seesaw's raised end is
 where it was at reset. ``tests/sim/test_scan.py`` checks it against ``mujoco.mj_ray`` on every terrain kind,
 moving props included; ``krl bench agent`` measures its cost per robot step. It only reads ``MjData``.
 
+For N robots (:meth:`krl.sim.batch.SimBatch.terrain_heights`), :class:`GroundStack` reads the fixed ground
+of all of them at once, one NumPy pass per kind of ground (:mod:`krl.sim.terrains.surface`), bit for bit
+what each terrain gives alone; then each robot's props are added by its own :class:`TerrainScanner`.
+
 Points are given in the robot's *heading frame* (yaw-aligned, origin under the trunk): x forward, y left
 [m]; :func:`heading_points_to_world` places them in the world.
 """
