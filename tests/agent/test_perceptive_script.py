@@ -8,8 +8,8 @@ import itertools
 from pathlib import Path
 
 import pytest
+from script_stand_in import check_restore, run_logged
 from script_stand_in import line_index as _index
-from script_stand_in import run_logged
 
 SCRIPT = Path(__file__).resolve().parents[2] / "examples" / "perceptive" / "agent-perceptive.sh"
 
@@ -40,20 +40,14 @@ def _run(tmp_path: Path, stands: str) -> list[str]:
 
 
 def test_committed_run_folders_go_on_from_where_they_stopped(tmp_path):
-    committed = tmp_path / "committed" / "scan-seed150"
-    committed.mkdir(parents=True)
-    (committed / "config.json").write_text('{"seed": 150}')
-    (tmp_path / "runs" / "perceptive" / "scan-critic-seed150").mkdir(parents=True)  # newer here: kept
-    (tmp_path / "committed" / "scan-critic-seed150").mkdir()
-    (tmp_path / "committed" / "scan-critic-seed150" / "config.json").write_text("{}")
-    own = tmp_path / "committed" / "agent-perceptive" / "seed345"  # the winner's own seeds
-    own.mkdir(parents=True)
-    (own / "config.json").write_text('{"seed": 345}')
-    _run(tmp_path, "true")
-    assert (tmp_path / "runs/perceptive/scan-seed150/config.json").read_text() == '{"seed": 150}'
-    assert not list((tmp_path / "runs/perceptive/scan-critic-seed150").iterdir())
-    assert (tmp_path / "runs/agent-perceptive/seed345/config.json").read_text() == '{"seed": 345}'
-    assert not (tmp_path / "runs/perceptive/agent-perceptive").exists()
+    check_restore(
+        tmp_path,
+        lambda: _run(tmp_path, "true"),
+        "perceptive",
+        "agent-perceptive",
+        "scan-seed150",
+        "scan-critic-seed150",
+    )
 
 
 @pytest.mark.parametrize("stands", ["true", "false"])

@@ -10,8 +10,8 @@ import json
 from pathlib import Path
 
 import pytest
+from script_stand_in import check_restore, run_logged
 from script_stand_in import line_index as _index
-from script_stand_in import run_logged
 
 SCRIPT = Path(__file__).resolve().parents[2] / "examples" / "robust" / "agent-robust.sh"
 
@@ -44,20 +44,9 @@ def _run(tmp_path: Path, stands: str) -> list[str]:
 
 
 def test_committed_run_folders_go_on_from_where_they_stopped(tmp_path):
-    committed = tmp_path / "committed" / "sym-seed215"
-    committed.mkdir(parents=True)
-    (committed / "config.json").write_text("{}")
-    (tmp_path / "runs" / "robust" / "sym-seed150").mkdir(parents=True)  # newer here: kept
-    (tmp_path / "committed" / "sym-seed150").mkdir()
-    robust_seed = tmp_path / "committed" / "agent-robust" / "seed345"  # agent-robust's own seeds
-    robust_seed.mkdir(parents=True)
-    (robust_seed / "config.json").write_text('{"seed": 345}')
-    lines = _run(tmp_path, "true")
-    assert (tmp_path / "runs/robust/sym-seed215/config.json").read_text() == "{}"
-    assert not list((tmp_path / "runs/robust/sym-seed150").iterdir())
-    assert any("--out runs/robust/sym-seed215 " in line for line in lines)
-    assert (tmp_path / "runs/agent-robust/seed345/config.json").read_text() == '{"seed": 345}'
-    assert not (tmp_path / "runs/robust/agent-robust").exists()
+    check_restore(
+        tmp_path, lambda: _run(tmp_path, "true"), "robust", "agent-robust", "sym-seed215", "sym-seed150"
+    )
 
 
 @pytest.mark.parametrize("stands", ["true", "false"])
