@@ -126,6 +126,7 @@ SMOKE: dict[str, tuple[str, str | None]] = {
     "krl report": ("", None),
     "krl agent digest --json": ("--envs 1 --steps 5", None),
     "krl agent config runs/agent-rp/config.json loss.json --out my.json": ("", None),
+    "krl agent snapshot runs/agent-rp --out committed": ("", None),
     "krl convert-results runs/eval": ("", None),
     "krl compare-results runs/eval runs/eval": ("", None),
     "krl analyze push-sweep runs/push": ("", None),

@@ -15,7 +15,7 @@ from __future__ import annotations
 import csv
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -310,3 +310,55 @@ def _segment_steps(path: Path) -> int:
     """The env steps of a log segment ``progress.<steps>.csv``; -1 for any other name (never past any)."""
     middle = path.name.removeprefix("progress.").removesuffix(".csv")
     return int(middle) if middle.isdigit() else -1
+
+
+SNAPSHOT_LEFT_OUT = "events.out"
+"""TensorBoard's event files start so: a snapshot leaves them out (they repeat ``progress*.csv``)."""
+
+
+def snapshot_run(run: Path, target: Path) -> int:
+    """Copy the run folder ``run`` into ``target``: its config, run record, training logs
+    (``progress*.csv``), policy and checkpoints (a run keeps its last two), not TensorBoard's event files;
+    what ``target`` holds beyond them (an older checkpoint) is removed once the new files are in. Each file
+    is written through a temporary name and renamed, so a snapshot stopped halfway leaves every file whole.
+    Returns the bytes copied."""
+    kept = {
+        path.relative_to(run)
+        for path in run.rglob("*")
+        if path.is_file() and not path.name.startswith(SNAPSHOT_LEFT_OUT)
+    }
+    for relative in sorted(kept):
+        write_atomic(target / relative, (run / relative).read_bytes())
+    for path in sorted(target.rglob("*"), reverse=True):  # files before the folders holding them
+        relative = path.relative_to(target)
+        if path.is_file() and relative not in kept:
+            path.unlink()
+        elif path.is_dir() and not any(path.iterdir()):
+            path.rmdir()
+    return sum((run / relative).stat().st_size for relative in kept)
+
+
+def snapshot_runs(runs: Sequence[Path], dest: Path) -> dict[str, Any]:
+    """Copy each run folder of ``runs`` into ``dest/<its name>`` (:func:`snapshot_run`): what resuming
+    it needs, small enough to commit or to carry to another machine; copied back into a runs folder,
+    ``krl agent train --out`` there goes on from its newest checkpoint. Returns ``runs`` (the copies'
+    paths) and ``bytes``.
+
+    Raises:
+        ValueError: a path is not a run folder of ``krl agent train`` (no ``config.json`` and ``run.json``),
+            two runs share a name, or ``dest`` is, or lies inside, one of the runs (its copy would overwrite
+            the run itself); nothing is written then.
+    """
+    names: dict[str, Path] = {}
+    for run in runs:
+        if not ((run / "config.json").is_file() and (run / "run.json").is_file()):
+            raise ValueError(f"{run} is not a run folder of krl agent train (no config.json and run.json)")
+        if run.name in names:
+            raise ValueError(f"two runs are named {run.name} ({names[run.name]}, {run}): snapshot them apart")
+        if dest.resolve() == run.resolve() or run.resolve() in dest.resolve().parents:
+            raise ValueError(f"--out {dest} lies in the run {run}: give a folder outside it")
+        if (dest / run.name).resolve() == run.resolve():
+            raise ValueError(f"--out {dest} already holds the run {run} itself: give another folder")
+        names[run.name] = run
+    copied = sum(snapshot_run(run, dest / name) for name, run in names.items())
+    return {"runs": [str(dest / name) for name in names], "bytes": copied}

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from krl.cli import study
+from krl.cli import runs, study
 from krl.cli.common import (
     SHIPPED_AGENTS,
     CliError,
@@ -267,6 +267,7 @@ def register(subparsers) -> None:
     _add_rhythm(group)
     _add_digest(group)
     _add_config(group)
+    runs.register(group)
 
 
 def _add_train(group) -> None:

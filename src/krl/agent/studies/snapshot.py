@@ -4,9 +4,8 @@
 
 * its SQLite storage ``study.db``, through SQLite's backup API, so the copy is consistent while the
   study's jobs write (a PostgreSQL storage stays in its server: ``pg_dump`` is its tool);
-* each trial's run folder ``trials/<stage>/<entry>/`` without TensorBoard's event files, which repeat the
-  training log: its config, run record, training logs (``progress*.csv``), policy and checkpoints (a run
-  keeps its last two).
+* each trial's run folder ``trials/<stage>/<entry>/`` as :func:`krl.agent.run_folder.snapshot_run` copies
+  it: without TensorBoard's event files, which repeat the training log.
 
 Every file is written through a temporary name and renamed, so a snapshot stopped halfway leaves each file
 whole, old or new; files of the snapshot's run folders that the study no longer has (an older checkpoint)
@@ -20,14 +19,11 @@ import sqlite3
 from pathlib import Path
 from typing import Any
 
+from krl.agent.run_folder import snapshot_run
 from krl.util.output import write_atomic
 
 DATABASE = "study.db"
 """A study's default SQLite storage file in its folder (``krl agent study``'s ``--storage`` default)."""
-
-LEFT_OUT_PREFIX = "events.out"
-"""TensorBoard's event files start so: the snapshot leaves them out."""
-
 
 def _backup_database(source: Path, target: Path) -> None:
     """A consistent copy of the SQLite database ``source`` (others may be writing) at ``target``."""
@@ -41,25 +37,6 @@ def _backup_database(source: Path, target: Path) -> None:
         reader.close()
         memory.close()
     write_atomic(target, data)
-
-
-def _snapshot_run(run: Path, target: Path) -> int:
-    """Copy the run folder ``run`` into ``target`` (event files left out) and remove what ``target`` has
-    beyond it; returns the bytes copied."""
-    kept = {
-        path.relative_to(run)
-        for path in run.rglob("*")
-        if path.is_file() and not path.name.startswith(LEFT_OUT_PREFIX)
-    }
-    for relative in sorted(kept):
-        write_atomic(target / relative, (run / relative).read_bytes())
-    for path in sorted(target.rglob("*"), reverse=True):  # files before the folders holding them
-        relative = path.relative_to(target)
-        if path.is_file() and relative not in kept:
-            path.unlink()
-        elif path.is_dir() and not any(path.iterdir()):
-            path.rmdir()
-    return sum((run / relative).stat().st_size for relative in kept)
 
 
 def snapshot_study(out: Path, url: str, dest: Path) -> dict[str, Any]:
@@ -86,7 +63,7 @@ def snapshot_study(out: Path, url: str, dest: Path) -> dict[str, Any]:
     runs = sorted(path for path in (out / "trials").glob("*/*") if path.is_dir())
     if database is None and not runs:
         raise FileNotFoundError(f"nothing to snapshot: no study database and no trial run folder in {out}")
-    copied = sum(_snapshot_run(run, dest / run.relative_to(out)) for run in runs)
+    copied = sum(snapshot_run(run, dest / run.relative_to(out)) for run in runs)
     return {
         "database": None if database is None else str(database),
         "runs": [str(run.relative_to(out / "trials")) for run in runs],
