@@ -25,6 +25,7 @@ from krl.util.output import write_atomic
 DATABASE = "study.db"
 """A study's default SQLite storage file in its folder (``krl agent study``'s ``--storage`` default)."""
 
+
 def _backup_database(source: Path, target: Path) -> None:
     """A consistent copy of the SQLite database ``source`` (others may be writing) at ``target``."""
     for left in target.parent.glob(f".{target.name}.*.tmp"):  # of a snapshot stopped halfway
