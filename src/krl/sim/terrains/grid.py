@@ -70,10 +70,6 @@ class HeightGrid:
         """y of the last row [m]."""
         return self.y0 + (self.heights.shape[0] - 1) * self.dy
 
-    def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Whether (x, y) [m] lies over the field (boundary included); x and y broadcast."""
-        return (x >= self.x0) & (x <= self.x1) & (y >= self.y0) & (y <= self.y1)
-
     def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Surface height at (x, y) [m] as MuJoCo triangulates it [m]; NaN outside the field. x and y
         broadcast."""
